@@ -1,0 +1,90 @@
+"""DoE-only standardization and the kNN support gate (the validated domain Omega)."""
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.neighbors import NearestNeighbors
+from sklearn.utils.validation import check_is_fitted
+
+
+class DoEStandardizer(TransformerMixin, BaseEstimator):
+    """z = (x - mean) / std with the statistics of the data it is fitted on (the DoE).
+
+    Uses the sample standard deviation (ddof=1), as the paper's sigma^DoE.
+    """
+
+    def fit(self, X, y=None):
+        X = np.asarray(X, float)
+        self.mean_ = X.mean(axis=0)
+        self.scale_ = X.std(axis=0, ddof=1) if len(X) > 1 else np.ones(X.shape[1])
+        if np.any(~(self.scale_ > 0)):
+            raise ValueError(f"constant input column(s) at position(s) {np.flatnonzero(~(self.scale_ > 0)).tolist()}")
+        self.n_features_in_ = X.shape[1]
+        return self
+
+    def transform(self, X):
+        check_is_fitted(self, "mean_")
+        return (np.asarray(X, float) - self.mean_) / self.scale_
+
+    def to_dict(self) -> dict:
+        return {"mean": self.mean_.tolist(), "std": self.scale_.tolist()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "DoEStandardizer":
+        standardizer = cls()
+        standardizer.mean_ = np.asarray(data["mean"], float)
+        standardizer.scale_ = np.asarray(data["std"], float)
+        standardizer.n_features_in_ = len(standardizer.mean_)
+        return standardizer
+
+
+class KNNSupportGate(BaseEstimator):
+    """In-support test: mean distance to the k nearest DoE points in DoE-standardized space.
+
+    The threshold is the ``percentile`` of the DoE's own leave-one-out kNN
+    distances, so a production part counts as supported when it is no further
+    from the DoE cloud than most DoE points are from each other.
+    ``predict`` returns True for in-support rows.
+    """
+
+    def __init__(self, k: int = 5, percentile: float = 95.0, standardizer: DoEStandardizer | None = None):
+        self.k = k
+        self.percentile = percentile
+        self.standardizer = standardizer
+
+    def fit(self, X, y=None):
+        """Fit on the DoE inputs; a given, already fitted ``standardizer`` is used as it is."""
+        X = np.asarray(X, float)
+        if len(X) <= self.k:
+            raise ValueError(f"the kNN gate needs more than k={self.k} DoE rows, got {len(X)}")
+        self.standardizer_ = self.standardizer if self.standardizer is not None else DoEStandardizer().fit(X)
+        self.reference_ = self.standardizer_.transform(X)
+        self._index = NearestNeighbors(n_neighbors=self.k).fit(self.reference_)
+        # k+1 neighbours of each DoE point: the first is the point itself (leave-one-out)
+        distances, _ = NearestNeighbors(n_neighbors=self.k + 1).fit(self.reference_).kneighbors(self.reference_)
+        self.doe_distances_ = distances[:, 1:].mean(axis=1)
+        self.threshold_ = float(np.percentile(self.doe_distances_, self.percentile))
+        self.n_features_in_ = X.shape[1]
+        return self
+
+    def distance(self, X) -> np.ndarray:
+        check_is_fitted(self, "threshold_")
+        distances, _ = self._index.kneighbors(self.standardizer_.transform(X))
+        return distances.mean(axis=1)
+
+    def predict(self, X) -> np.ndarray:
+        return self.distance(X) <= self.threshold_
+
+    def to_dict(self) -> dict:
+        return {"k": self.k, "percentile": self.percentile, "threshold": self.threshold_,
+                "standardizer": self.standardizer_.to_dict(), "reference": self.reference_.tolist()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "KNNSupportGate":
+        gate = cls(k=int(data["k"]), percentile=float(data["percentile"]))
+        gate.standardizer_ = DoEStandardizer.from_dict(data["standardizer"])
+        gate.reference_ = np.asarray(data["reference"], float)
+        gate._index = NearestNeighbors(n_neighbors=gate.k).fit(gate.reference_)
+        gate.threshold_ = float(data["threshold"])
+        gate.n_features_in_ = gate.reference_.shape[1]
+        return gate

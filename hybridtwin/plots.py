@@ -1,0 +1,97 @@
+"""Figures. Each function returns a matplotlib Figure; io.save_figure writes it."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+plt.rcParams.update({"figure.dpi": 120, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
+                     "svg.hashsalt": "hybridtwin"})
+
+
+def support_distances(doe_distances, production_distances, threshold, percentile):
+    figure, axis = plt.subplots(figsize=(6, 3.5))
+    production_distances = np.asarray(production_distances, float)
+    bins = np.linspace(0, np.percentile(production_distances, 99.5) * 1.05, 60)
+    axis.hist(production_distances, bins=bins, color="0.6", label=f"production (n={len(production_distances):,})",
+              density=True)
+    axis.hist(doe_distances, bins=bins, histtype="step", color="C0", lw=1.5, density=True,
+              label=f"DoE leave-one-out (n={len(doe_distances)})")
+    axis.axvline(threshold, color="C3", ls="--", label=f"threshold ({percentile:g}th pct) = {threshold:.2f}")
+    inside = np.mean(production_distances <= threshold)
+    axis.set(xlabel="mean distance to k nearest DoE points (DoE-standardized)", ylabel="density",
+             title=f"kNN support: {inside:.1%} of production in support")
+    axis.legend()
+    return figure
+
+
+def parity(reference, prediction, label: str, unit: str = "mm", title: str = ""):
+    """Predicted against reference with the 1:1 line."""
+    figure, axis = plt.subplots(figsize=(4.5, 4.5))
+    axis.scatter(reference, prediction, s=14, color="C0", alpha=0.8)
+    _one_to_one(axis, reference, prediction)
+    axis.set(xlabel=f"{label} [{unit}]", ylabel=f"predicted [{unit}]", title=title)
+    return figure
+
+
+def _one_to_one(axis, *arrays):
+    values = np.concatenate([np.asarray(a, float).ravel() for a in arrays])
+    low, high = np.nanmin(values), np.nanmax(values)
+    pad = 0.05 * (high - low or 1.0)
+    axis.plot([low - pad, high + pad], [low - pad, high + pad], color="k", lw=1, label="1:1")
+    axis.set_xlim(low - pad, high + pad)
+    axis.set_ylim(low - pad, high + pad)
+
+
+def residual_check(production_target, production_pred, matched_target, matched_pred, matched_scores: dict):
+    """Figure 2: predicted residual against its target, production cloud and matched cases."""
+    figure, axis = plt.subplots(figsize=(5.5, 5))
+    axis.scatter(production_target, production_pred, s=3, color="0.65", alpha=0.35, rasterized=True,
+                 label=f"production in support, out-of-fold (n={len(production_target):,})")
+    axis.scatter(matched_target, matched_pred, s=40, color="C0", edgecolor="k", zorder=3,
+                 label=(f"matched cases, true residual (n={len(matched_target)}): R²={matched_scores['r2']:.2f}, "
+                        f"RMSE={matched_scores['rmse']:.2f} mm"))
+    _one_to_one(axis, production_target, production_pred, matched_target, matched_pred)
+    axis.set(xlabel="residual target: r_approx (production) / true residual (matched) [mm]",
+             ylabel="predicted residual r_hat [mm]", title="Residual model: production and matched cases")
+    axis.legend(loc="upper left", fontsize=7)
+    return figure
+
+
+def error_distributions(groups: dict[str, dict[str, np.ndarray]]):
+    """Figure 3: error histograms, surrogate against hybrid, one panel per data set."""
+    figure, axes = plt.subplots(1, len(groups), figsize=(5 * len(groups), 3.8), squeeze=False)
+    for axis, (title, errors) in zip(axes[0], groups.items()):
+        values = np.concatenate([np.asarray(e, float) for e in errors.values()])
+        bins = np.linspace(np.percentile(values, 0.5), np.percentile(values, 99.5), 50 if len(values) > 50 else 12)
+        for index, (name, error) in enumerate(errors.items()):
+            error = np.asarray(error, float)
+            std = error.std(ddof=1) if len(error) > 1 else 0.0
+            axis.hist(error, bins=bins, alpha=0.55, color=f"C{index}", density=True,
+                      label=f"{name}: μ={error.mean():.2f}, σ={std:.2f} mm")
+        axis.axvline(0, color="k", lw=0.8)
+        axis.set(xlabel="error = measured − predicted [mm]", ylabel="density", title=title)
+        axis.legend(fontsize=7)
+    figure.tight_layout()
+    return figure
+
+
+def cause_effect(values, residual, curve_x, curve_y, band, title: str, xlabel: str, categorical: bool = False):
+    """Residual against a candidate cause, binned, with the fitted form and its band."""
+    figure, axis = plt.subplots(figsize=(6, 3.8))
+    if categorical:
+        positions = np.arange(len(curve_x))
+        axis.errorbar(positions, curve_y, yerr=band, fmt="o", color="C3", label="fitted group offset ± 2 SE")
+        axis.scatter(positions, values, s=20, color="0.4", marker="_", label="group mean residual")
+        axis.set_xticks(positions, curve_x, rotation=90, fontsize=6)
+    else:
+        axis.errorbar(values["center"], values["mean"], yerr=2 * values["se"], fmt="o", ms=3, color="0.3",
+                      label="binned residual (mean ± 2 SE)")
+        axis.plot(curve_x, curve_y, color="C3", lw=2, label="fitted form")
+        axis.fill_between(curve_x, curve_y - band, curve_y + band, color="C3", alpha=0.2, label="95% band")
+    axis.axhline(0, color="k", lw=0.6)
+    axis.set(xlabel=xlabel, ylabel="offset-free residual [mm]", title=title)
+    axis.legend(fontsize=7)
+    return figure

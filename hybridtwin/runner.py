@@ -1,0 +1,37 @@
+"""Glue for the workflow's rule scripts: logging to the rule's log and clean input errors.
+
+It takes Snakemake's ``snakemake`` object as a plain object (input, output,
+params, log, threads, config) and never imports snakemake, so the package can be
+used and tested without it.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+import warnings
+
+from .data import InputError
+
+
+def run(snakemake, main) -> None:
+    """Call ``main(snakemake)`` with logging to the rule's log file and to stderr.
+
+    An :class:`InputError` ends the job with its message and exit status 1, no traceback.
+    """
+    handlers = [logging.StreamHandler(sys.stderr)]
+    if getattr(snakemake, "log", None):
+        handlers.append(logging.FileHandler(snakemake.log[0], mode="w"))
+    logging.basicConfig(level=logging.INFO, handlers=handlers, force=True,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.captureWarnings(True)
+    warnings.simplefilter("default")
+    for noisy in ("matplotlib", "PIL", "optuna"):
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+    try:
+        main(snakemake)
+    except InputError as error:
+        logging.getLogger("hybridtwin").error("%s", error)
+        sys.exit(1)
+    except Exception:
+        logging.getLogger("hybridtwin").exception("rule failed")
+        raise

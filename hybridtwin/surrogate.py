@@ -1,0 +1,74 @@
+"""GPR surrogate of the simulator: Matern 5/2 (ARD), constant mean, learned noise.
+
+The model file is JSON: the fitted kernel hyperparameters and the training
+data. Loading rebuilds the same GaussianProcessRegressor with the optimizer
+switched off, which reproduces the fitted posterior exactly; nothing is pickled.
+"""
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
+from sklearn.utils.validation import check_is_fitted
+
+from .gate import DoEStandardizer
+
+
+class GPRSurrogate(RegressorMixin, BaseEstimator):
+    """Inputs are standardized with the statistics of the training (DoE) rows."""
+
+    def __init__(self, nu: float = 2.5, n_restarts: int = 3, random_state: int = 0,
+                 length_scale_bounds: tuple[float, float] = (1e-2, 1e4), noise_bounds: tuple[float, float] = (1e-6, 1.0)):
+        self.nu = nu
+        self.n_restarts = n_restarts
+        self.random_state = random_state
+        self.length_scale_bounds = length_scale_bounds
+        self.noise_bounds = noise_bounds
+
+    def _kernel(self, n_features: int):
+        # normalize_y scales the target to unit variance, so these bounds are in those units
+        return (ConstantKernel(1.0, (1e-3, 1e3))
+                * Matern(length_scale=np.full(n_features, 3.0), length_scale_bounds=self.length_scale_bounds, nu=self.nu)
+                + WhiteKernel(1e-2, self.noise_bounds))
+
+    def fit(self, X, y):
+        X = np.asarray(X, float)
+        self.standardizer_ = DoEStandardizer().fit(X)
+        self.gpr_ = GaussianProcessRegressor(self._kernel(X.shape[1]), normalize_y=True,
+                                             n_restarts_optimizer=self.n_restarts, random_state=self.random_state)
+        self.gpr_.fit(self.standardizer_.transform(X), np.asarray(y, float))
+        self.n_features_in_ = X.shape[1]
+        return self
+
+    def predict(self, X, return_std: bool = False):
+        check_is_fitted(self, "gpr_")
+        return self.gpr_.predict(self.standardizer_.transform(X), return_std=return_std)
+
+    @property
+    def noise_std_(self) -> float:
+        """Learned noise (FE numerical scatter) in the target's unit."""
+        return float(np.sqrt(self.gpr_.kernel_.k2.noise_level) * self.gpr_._y_train_std)
+
+    def to_dict(self) -> dict:
+        check_is_fitted(self, "gpr_")
+        return {"format": "hybridtwin.GPRSurrogate/1", "params": self.get_params(),
+                "kernel": repr(self.gpr_.kernel_), "theta": self.gpr_.kernel_.theta.tolist(),
+                "standardizer": self.standardizer_.to_dict(),
+                "X_train": self.gpr_.X_train_.tolist(),
+                "y_train": (self.gpr_.y_train_ * self.gpr_._y_train_std + self.gpr_._y_train_mean).tolist(),
+                "noise_std": self.noise_std_}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "GPRSurrogate":
+        params = dict(data["params"])
+        params["length_scale_bounds"] = tuple(params["length_scale_bounds"])
+        params["noise_bounds"] = tuple(params["noise_bounds"])
+        model = cls(**params)
+        X_train = np.asarray(data["X_train"], float)
+        kernel = model._kernel(X_train.shape[1]).clone_with_theta(np.asarray(data["theta"], float))
+        model.standardizer_ = DoEStandardizer.from_dict(data["standardizer"])
+        model.gpr_ = GaussianProcessRegressor(kernel, normalize_y=True, optimizer=None)
+        model.gpr_.fit(X_train, np.asarray(data["y_train"], float))
+        model.n_features_in_ = X_train.shape[1]
+        return model

@@ -1,0 +1,40 @@
+"""K-fold cross-validation shared by the surrogate, the residual model and the diagnosis."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+from sklearn.model_selection import KFold
+
+from .metrics import bias, mae, r2, rmse
+
+
+def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Shuffled K-fold (train, test) index pairs; the same seed gives the same split."""
+    if n_rows < n_folds:
+        raise ValueError(f"{n_rows} rows are fewer than the {n_folds} CV folds")
+    return list(KFold(n_splits=n_folds, shuffle=True, random_state=seed).split(np.arange(n_rows)))
+
+
+def cross_validate(estimator, X, y, n_folds: int, seed: int) -> tuple[pd.DataFrame, np.ndarray]:
+    """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only."""
+    X, y = np.asarray(X, float), np.asarray(y, float)
+    oof = np.empty_like(y)
+    rows = []
+    for fold, (train, test) in enumerate(folds(len(y), n_folds, seed), start=1):
+        model = clone(estimator).fit(X[train], y[train])
+        oof[test] = model.predict(X[test])
+        rows.append({"fold": fold, "n_train": len(train), "n_test": len(test), "rmse": rmse(y[test], oof[test]),
+                     "mae": mae(y[test], oof[test]), "bias": bias(y[test], oof[test]), "r2": r2(y[test], oof[test])})
+    return pd.DataFrame(rows), oof
+
+
+def cv_table(per_fold: pd.DataFrame, y, oof, model: str, evaluated_on: str) -> pd.DataFrame:
+    """One-row summary: mean and std over folds, and the pooled out-of-fold scores."""
+    row = {"model": model, "n": len(y), "folds": len(per_fold)}
+    for metric in ("rmse", "mae", "bias", "r2"):
+        row[f"cv_{metric}_mean"] = float(per_fold[metric].mean())
+        row[f"cv_{metric}_std"] = float(per_fold[metric].std(ddof=1)) if len(per_fold) > 1 else 0.0
+    row.update({"pooled_r2": r2(y, oof), "pooled_rmse": rmse(y, oof), "pooled_mae": mae(y, oof)})
+    row["evaluated_on"] = evaluated_on
+    return pd.DataFrame([row])

@@ -1,0 +1,20 @@
+"""Step 8: Figure 3, error distributions of surrogate and hybrid, in support (out-of-fold) and on matched cases."""
+from hybridtwin import io, plots
+from hybridtwin.data import read_checked
+from hybridtwin.runner import run
+
+
+def main(snakemake):
+    predictions = read_checked(snakemake.input.predictions)
+    inside = predictions[predictions["in_support"].astype(bool)]
+    cases = read_checked(snakemake.input.cases)
+    groups = {
+        f"production in support (n={len(inside):,}), hybrid out-of-fold": {
+            "surrogate": inside["measured"] - inside["pred_surrogate"],
+            "hybrid": inside["measured"] - inside["pred_hybrid_oof"]},
+        f"matched cases (n={len(cases)})": {"surrogate": cases["error_surrogate"], "hybrid": cases["error_hybrid"]},
+    }
+    io.save_figure(plots.error_distributions(groups), snakemake.output.figure)
+
+
+run(snakemake, main)

@@ -1,0 +1,19 @@
+"""Predictions for every production row, in input order."""
+from hybridtwin import io, residual
+from hybridtwin.data import read_checked
+from hybridtwin.hybrid import production_predictions
+from hybridtwin.runner import run
+
+
+def main(snakemake):
+    production = read_checked(snakemake.input.production)
+    X = production[snakemake.params.inputs].to_numpy(float)
+    table = production_predictions(
+        residuals=read_checked(snakemake.input.residuals), support=read_checked(snakemake.input.support),
+        filtered=residual.load_model(snakemake.input.filtered_model).predict(X),
+        unfiltered=residual.load_model(snakemake.input.unfiltered_model).predict(X),
+        filtered_oof=read_checked(snakemake.input.filtered_oof), unfiltered_oof=read_checked(snakemake.input.unfiltered_oof))
+    io.write_csv(table, snakemake.output.predictions)
+
+
+run(snakemake, main)

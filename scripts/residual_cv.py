@@ -1,0 +1,31 @@
+"""Step 5b: K-fold CV of the residual model with the tuned hyperparameters: per-fold scores and out-of-fold predictions.
+
+training=filtered: in-support rows only (the paper's model, Table 3).
+training=unfiltered: every production row (Table 5's comparison).
+"""
+import pandas as pd
+
+from hybridtwin import io, residual
+from hybridtwin.data import read_checked
+from hybridtwin.runner import run
+from hybridtwin.validation import cross_validate, cv_table
+
+
+def main(snakemake):
+    production = read_checked(snakemake.input.production)
+    residuals = read_checked(snakemake.input.residuals)
+    rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
+    X = production.loc[rows, snakemake.params.inputs]
+    y = residuals.loc[rows, "residual_approx"].to_numpy(float)
+    params = io.read_json(snakemake.input.best)["params"]
+    model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
+    per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, snakemake.params.seed)
+    io.write_csv(per_fold, snakemake.output.folds)
+    io.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
+    io.write_csv(cv_table(per_fold, y, oof, f"XGBoost residual model ({snakemake.wildcards.training} train)",
+                          f"approximate residuals of {len(y)} production rows "
+                          f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
+                          f"{snakemake.params.folds}-fold CV"), snakemake.output.table)
+
+
+run(snakemake, main)

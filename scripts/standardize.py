@@ -1,0 +1,19 @@
+"""Step 1: input standardization with DoE statistics only."""
+import pandas as pd
+
+from hybridtwin import io
+from hybridtwin.data import read_checked
+from hybridtwin.gate import DoEStandardizer
+from hybridtwin.runner import run
+
+
+def main(snakemake):
+    inputs = snakemake.params.inputs
+    doe = read_checked(snakemake.input.doe)
+    standardizer = DoEStandardizer().fit(doe[inputs])
+    io.write_json({"columns": inputs, **standardizer.to_dict()}, snakemake.output.model)
+    io.write_csv(pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
+                 snakemake.output.table)
+
+
+run(snakemake, main)

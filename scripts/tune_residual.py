@@ -1,0 +1,27 @@
+"""Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE."""
+import logging
+
+import pandas as pd
+
+from hybridtwin import io, residual
+from hybridtwin.data import read_checked
+from hybridtwin.runner import run
+
+
+def main(snakemake):
+    production = read_checked(snakemake.input.production)
+    residuals = read_checked(snakemake.input.residuals)
+    inside = residuals["in_support"].astype(bool).to_numpy()
+    space = residual.search_space(snakemake.params.search_space)
+    study = residual.tune(production.loc[inside, snakemake.params.inputs], residuals.loc[inside, "residual_approx"],
+                          n_trials=snakemake.params.n_trials, n_folds=snakemake.params.folds,
+                          seed=snakemake.params.seed, storage=snakemake.params.storage, space=space,
+                          n_jobs=snakemake.threads)
+    best = residual.best_params(study, space)
+    logging.info("study %s: best CV RMSE %.4f with %s", study.study_name, study.best_value, best)
+    io.write_json({"study": study.study_name, "params": best, "cv_rmse": study.best_value}, snakemake.output.best)
+    io.write_csv(residual.hyperparameter_table(best, space), snakemake.output.table)
+    io.write_csv(residual.trials_table(study), snakemake.output.trials)
+
+
+run(snakemake, main)

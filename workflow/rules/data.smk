@@ -1,0 +1,98 @@
+# The input data: the built-in demo plant (when the config points at it), checks and checked copies.
+
+
+rule demo_data:
+    output:
+        doe="results/demo/doe.csv",
+        production="results/demo/production.csv",
+        matched="results/demo/matched.csv",
+        production_truth="results/demo/production_truth.csv",
+        matched_truth="results/demo/matched_truth.csv",
+        spec="results/demo/demo_spec.json",
+    params:
+        demo=config["demo"],
+    log:
+        log_of("demo_data"),
+    benchmark:
+        benchmark_of("demo_data")
+    script:
+        "../../scripts/demo_data.py"
+
+
+rule validate_inputs:
+    input:
+        doe=config["data"]["doe"],
+        production=config["data"]["production"],
+        matched=config["data"]["matched"],
+    output:
+        doe="results/data/doe.csv",
+        production="results/data/production.csv",
+        matched="results/data/matched.csv",
+        report="results/data/validation_report.txt",
+    params:
+        settings={key: config[key] for key in ("data", "columns", "csv", "cv", "gate")},
+    log:
+        log_of("validate_inputs"),
+    benchmark:
+        benchmark_of("validate_inputs")
+    script:
+        "../../scripts/validate_inputs.py"
+
+
+rule standardize:
+    input:
+        doe=rules.validate_inputs.output.doe,
+    output:
+        model=f"{MODELS}/doe_standardization.json",
+        table=f"{TABLES}/doe_standardization.csv",
+    params:
+        inputs=INPUTS,
+    log:
+        log_of("standardize"),
+    benchmark:
+        benchmark_of("standardize")
+    script:
+        "../../scripts/standardize.py"
+
+
+rule support_gate:
+    input:
+        doe=rules.validate_inputs.output.doe,
+        production=rules.validate_inputs.output.production,
+        matched=rules.validate_inputs.output.matched,
+        standardization=rules.standardize.output.model,
+    output:
+        model=f"{MODELS}/support_gate.json",
+        production="results/support/production_support.csv",
+        matched="results/support/matched_support.csv",
+        figure=report(f"{FIGURES}/support_distances.png", caption="../report/support_distances.rst",
+                      category="1. Data and support"),
+    params:
+        inputs=INPUTS,
+        k=config["gate"]["k"],
+        percentile=config["gate"]["percentile"],
+        paths=config["data"],
+    log:
+        log_of("support_gate"),
+    benchmark:
+        benchmark_of("support_gate")
+    script:
+        "../../scripts/support_gate.py"
+
+
+rule table1:
+    input:
+        doe=rules.validate_inputs.output.doe,
+        matched=rules.validate_inputs.output.matched,
+        support=rules.support_gate.output.production,
+    output:
+        table=report(f"{TABLES}/table1_datasets.csv", caption="../report/table1.rst", category="1. Data and support"),
+    params:
+        k=config["gate"]["k"],
+        percentile=config["gate"]["percentile"],
+    log:
+        log_of("table1"),
+    benchmark:
+        benchmark_of("table1")
+    script:
+        "../../scripts/table1.py"

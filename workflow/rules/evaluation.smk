@@ -1,0 +1,99 @@
+# Predictions, the matched-case check, the sensitivity study and the synthetic corrected data.
+
+
+rule predict_production:
+    input:
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+        support=rules.support_gate.output.production,
+        filtered_model=f"{MODELS}/residual_xgb_filtered.json",
+        unfiltered_model=f"{MODELS}/residual_xgb_unfiltered.json",
+        filtered_oof="results/residuals/oof_filtered.csv",
+        unfiltered_oof="results/residuals/oof_unfiltered.csv",
+    output:
+        predictions="results/predictions/production.csv",
+    params:
+        inputs=INPUTS,
+    log:
+        log_of("predict_production"),
+    benchmark:
+        benchmark_of("predict_production")
+    script:
+        "../../scripts/predict_production.py"
+
+
+rule matched_check:
+    input:
+        matched=rules.validate_inputs.output.matched,
+        support=rules.support_gate.output.matched,
+        surrogate=rules.surrogate_fit.output.model,
+        model=f"{MODELS}/residual_xgb_filtered.json",
+        predictions=rules.predict_production.output.predictions,
+    output:
+        summary=report(f"{TABLES}/matched_check.csv", caption="../report/matched_check.rst",
+                       category="4. Hybrid evaluation"),
+        cases=f"{TABLES}/matched_cases.csv",
+        figure=report(f"{FIGURES}/figure2_residual_check.png", caption="../report/figure2.rst",
+                      category="4. Hybrid evaluation"),
+    params:
+        inputs=INPUTS,
+        matched_simulated=config["columns"]["matched_simulated"],
+        matched_measured=config["columns"]["matched_measured"],
+    log:
+        log_of("matched_check"),
+    benchmark:
+        benchmark_of("matched_check")
+    script:
+        "../../scripts/matched_check.py"
+
+
+rule figure_errors:
+    input:
+        predictions=rules.predict_production.output.predictions,
+        cases=rules.matched_check.output.cases,
+    output:
+        figure=report(f"{FIGURES}/figure3_error_distributions.png", caption="../report/figure3.rst",
+                      category="4. Hybrid evaluation"),
+    log:
+        log_of("figure_errors"),
+    benchmark:
+        benchmark_of("figure_errors")
+    script:
+        "../../scripts/figure_errors.py"
+
+
+rule sensitivity:
+    input:
+        predictions=rules.predict_production.output.predictions,
+    output:
+        table=report(f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst",
+                     category="4. Hybrid evaluation"),
+    log:
+        log_of("sensitivity"),
+    benchmark:
+        benchmark_of("sensitivity")
+    script:
+        "../../scripts/sensitivity.py"
+
+
+rule synthetic:
+    input:
+        doe=rules.validate_inputs.output.doe,
+        gate=rules.support_gate.output.model,
+        surrogate=rules.surrogate_fit.output.model,
+        model=f"{MODELS}/residual_xgb_filtered.json",
+    output:
+        doe=report("results/synthetic/doe_corrected.csv", caption="../report/synthetic.rst",
+                   category="5. Synthetic data"),
+        support="results/synthetic/support_samples.csv",
+    params:
+        inputs=INPUTS,
+        target=TARGET,
+        seed=SEED,
+        n_samples=config["synthetic"]["n_samples"],
+    log:
+        log_of("synthetic"),
+    benchmark:
+        benchmark_of("synthetic")
+    script:
+        "../../scripts/synthetic.py"

@@ -1,0 +1,86 @@
+# The XGBoost residual model: Optuna tuning, CV, final fits (filtered and unfiltered training sets).
+
+
+rule tune_residual:
+    input:
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+    output:
+        best="results/tuning/best_params.json",
+        trials="results/tuning/trials.csv",
+        table=report(f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst",
+                     category="3. Residual model"),
+    params:
+        inputs=INPUTS,
+        folds=FOLDS,
+        seed=SEED,
+        n_trials=config["tuning"]["n_trials"],
+        search_space=config["tuning"]["search_space"],
+        # the study journal lives outside the outputs, so a killed run resumes it
+        storage=config["tuning"]["storage"],
+    threads: 2
+    log:
+        log_of("tune_residual"),
+    benchmark:
+        benchmark_of("tune_residual")
+    script:
+        "../../scripts/tune_residual.py"
+
+
+rule residual_cv:
+    input:
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+        best=rules.tune_residual.output.best,
+    output:
+        folds="results/residuals/cv_folds_{training}.csv",
+        oof="results/residuals/oof_{training}.csv",
+        table="results/residuals/cv_{training}.csv",
+    wildcard_constraints:
+        training="filtered|unfiltered",
+    params:
+        inputs=INPUTS,
+        folds=FOLDS,
+        seed=SEED,
+    threads: 2
+    log:
+        log_of("residual_cv", "_{training}"),
+    benchmark:
+        benchmark_of("residual_cv", "_{training}")
+    script:
+        "../../scripts/residual_cv.py"
+
+
+rule table3:
+    input:
+        table="results/residuals/cv_filtered.csv",
+    output:
+        table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst",
+                     category="3. Residual model"),
+    log:
+        log_of("table3"),
+    benchmark:
+        benchmark_of("table3")
+    shell:
+        "cp {input.table} {output.table} 2> {log}"
+
+
+rule residual_fit:
+    input:
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+        best=rules.tune_residual.output.best,
+    output:
+        model=f"{MODELS}/residual_xgb_{{training}}.json",
+    wildcard_constraints:
+        training="filtered|unfiltered",
+    params:
+        inputs=INPUTS,
+        seed=SEED,
+    threads: 2
+    log:
+        log_of("residual_fit", "_{training}"),
+    benchmark:
+        benchmark_of("residual_fit", "_{training}")
+    script:
+        "../../scripts/residual_fit.py"

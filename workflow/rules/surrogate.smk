@@ -1,0 +1,59 @@
+# The GPR surrogate of the simulator and the approximate residuals it yields.
+
+
+rule surrogate_cv:
+    input:
+        doe=rules.validate_inputs.output.doe,
+    output:
+        table=report(f"{TABLES}/table2_surrogate_cv.csv", caption="../report/table2.rst", category="2. Surrogate"),
+        folds=f"{TABLES}/surrogate_cv_folds.csv",
+        figure=report(f"{FIGURES}/surrogate_parity.png", caption="../report/surrogate_parity.rst",
+                      category="2. Surrogate"),
+    params:
+        inputs=INPUTS,
+        target=TARGET,
+        folds=FOLDS,
+        seed=SEED,
+        n_restarts=config["surrogate"]["n_restarts"],
+    log:
+        log_of("surrogate_cv"),
+    benchmark:
+        benchmark_of("surrogate_cv")
+    script:
+        "../../scripts/surrogate_cv.py"
+
+
+rule surrogate_fit:
+    input:
+        doe=rules.validate_inputs.output.doe,
+    output:
+        model=f"{MODELS}/surrogate_gpr.json",
+    params:
+        inputs=INPUTS,
+        target=TARGET,
+        seed=SEED,
+        n_restarts=config["surrogate"]["n_restarts"],
+    log:
+        log_of("surrogate_fit"),
+    benchmark:
+        benchmark_of("surrogate_fit")
+    script:
+        "../../scripts/surrogate_fit.py"
+
+
+rule residuals:
+    input:
+        production=rules.validate_inputs.output.production,
+        support=rules.support_gate.output.production,
+        surrogate=rules.surrogate_fit.output.model,
+    output:
+        residuals="results/residuals/production_residuals.csv",
+    params:
+        inputs=INPUTS,
+        target=TARGET,
+    log:
+        log_of("residuals"),
+    benchmark:
+        benchmark_of("residuals")
+    script:
+        "../../scripts/residuals.py"
