@@ -1,0 +1,350 @@
+"""What the simulation gets wrong: rank candidate causes of the approximate residual.
+
+From the in-support approximate residuals minus their mean (the offset), every
+candidate column -- model inputs, plant log numbers, timestamps as elapsed
+hours, text ids as groups, and products of two inputs -- is fitted with a few
+physically plausible forms (see :mod:`hybridtwin.forms`). A form is chosen by
+K-fold held-out error with a BIC-style penalty on its parameters. Causes are
+then selected forward, each one conditionally on those already chosen, so that
+a correlated neighbour of the real cause (Rm next to Rp0.2, ambient next to die
+temperature, time next to stroke counter) is not named. A cause counts as
+significant when its held-out gain passes a block-wise t-test (blocks of
+consecutive rows, robust to drift and autocorrelation; Bonferroni over the
+candidates) and its effect is larger than the surrogate's own uncertainty,
+which is also in the residual.
+"""
+from __future__ import annotations
+
+import itertools
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from joblib import Parallel, delayed
+from scipy import stats
+
+from . import forms
+from .validation import folds as kfolds
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    name: str
+    kind: str  # "input", "log", "time", "group", "interaction"
+    values: np.ndarray
+    columns: tuple[str, ...]
+
+    @property
+    def form_names(self) -> tuple[str, ...]:
+        if self.kind == "group":
+            return ("group",)
+        if self.kind == "interaction":
+            return ("product",)
+        if len(np.unique(self.values)) <= 2:
+            return ("step",)
+        return tuple(cls.name for cls in forms.NUMERIC_FORMS)
+
+
+@dataclass(frozen=True)
+class Settings:
+    folds: int = 5
+    seed: int = 0
+    alpha: float = 0.01
+    max_causes: int = 3
+    max_levels: int = 200
+    max_rows: int = 10_000
+    surrogate_margin: float = 1.0
+    interactions: bool = True
+    exclude: tuple[str, ...] = ()
+    n_blocks: int = 200
+    n_jobs: int = 1
+
+    @classmethod
+    def from_config(cls, config: dict | None, folds: int, seed: int, n_jobs: int = 1) -> "Settings":
+        config = dict(config or {})
+        config["exclude"] = tuple(config.get("exclude", ()))
+        return cls(folds=folds, seed=seed, n_jobs=n_jobs, **config)
+
+
+@dataclass
+class Fit:
+    """A candidate's best form on a given target, with held-out scores."""
+
+    candidate: Candidate
+    form: forms.Form
+    oof: np.ndarray
+    cv_mse: float
+    null_mse: float
+    score: float
+    p_value: float
+    effect_range: float
+    effect_std: float
+
+    @property
+    def explained_share(self) -> float:
+        return float(max(0.0, 1.0 - self.cv_mse / self.null_mse)) if self.null_mse > 0 else 0.0
+
+
+@dataclass
+class Diagnosis:
+    offset: float
+    offset_se: float
+    n_rows: int
+    residual_std: float
+    surrogate_std: float
+    min_effect: float
+    table: pd.DataFrame
+    selected: list[Fit] = field(default_factory=list)
+    aliases: dict[str, list[str]] = field(default_factory=dict)
+    explained_by: dict[str, str] = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------- candidates
+
+def elapsed_hours(values: pd.Series, origin: pd.Timestamp | None = None) -> np.ndarray | None:
+    """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
+    text = values.astype(str)
+    stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
+    if stamps.isna().mean() > 0.01:
+        stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
+    if stamps.isna().mean() > 0.01:
+        return None
+    origin = stamps.min() if origin is None else origin
+    return ((stamps - origin).dt.total_seconds() / 3600.0).to_numpy(float)
+
+
+def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -> tuple[list[Candidate], dict[str, str]]:
+    """Candidate causes from every usable column, and the reasons others were skipped."""
+    candidates, skipped = [], {}
+    for column in frame.columns:
+        if column in exclude:
+            continue
+        values = frame[column]
+        if values.nunique(dropna=False) < 2:
+            skipped[column] = "constant"
+            continue
+        if pd.api.types.is_numeric_dtype(values):
+            if values.isna().any() or not np.isfinite(values.to_numpy(float)).all():
+                skipped[column] = "missing or infinite values"
+                continue
+            kind = "input" if column in inputs else "log"
+            candidates.append(Candidate(column, kind, values.to_numpy(float), (column,)))
+            continue
+        hours = elapsed_hours(values)
+        if hours is not None:
+            candidates.append(Candidate(column, "time", hours, (column,)))
+        elif values.nunique() <= settings.max_levels:
+            candidates.append(Candidate(column, "group", values.astype(str).to_numpy(), (column,)))
+        else:
+            skipped[column] = f"text with {values.nunique()} distinct values (more than {settings.max_levels})"
+    if settings.interactions:
+        numeric_inputs = [c for c in candidates if c.kind == "input"]
+        for a, b in itertools.combinations(numeric_inputs, 2):
+            candidates.append(Candidate(f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]),
+                                        (a.name, b.name)))
+    return candidates, skipped
+
+
+# ---------------------------------------------------------------- fitting
+
+def fit_form(name: str, x, y) -> forms.Form:
+    return forms.FORMS[name]().fit(x, y)
+
+
+def held_out(name: str, x, y, splits) -> np.ndarray:
+    oof = np.empty(len(y))
+    for train, test in splits:
+        oof[test] = fit_form(name, x[train], y[train]).predict(x[test])
+    return oof
+
+
+def block_p_value(y, oof, n_blocks: int) -> float:
+    """One-sided p-value that the held-out prediction beats zero, from block means of the gain."""
+    gain = y**2 - (y - oof) ** 2
+    blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))  # consecutive rows
+    means = np.array([block.mean() for block in blocks])
+    se = means.std(ddof=1) / np.sqrt(len(means))
+    if se == 0:
+        return 0.0 if means.mean() > 0 else 1.0
+    return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
+
+
+def best_fit(candidate: Candidate, y, splits, settings: Settings) -> Fit:
+    """The candidate's form with the lowest penalized held-out error."""
+    n = len(y)
+    null_mse = float(np.mean(y**2))
+    best = None
+    for name in candidate.form_names:
+        try:
+            oof = held_out(name, candidate.values, y, splits)
+            full = fit_form(name, candidate.values, y)
+        except (np.linalg.LinAlgError, ValueError) as error:
+            log.debug("form %s on %s failed: %s", name, candidate.name, error)
+            continue
+        cv_mse = float(np.mean((y - oof) ** 2))
+        score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n)
+        if best is None or score < best[0]:
+            best = (score, name, oof, full, cv_mse)
+    score, name, oof, full, cv_mse = best
+    fitted = full.predict(candidate.values)
+    return Fit(candidate, full, oof, cv_mse, null_mse, score - (n * np.log(max(null_mse, 1e-300))),
+               block_p_value(y, oof, settings.n_blocks), float(np.ptp(fitted)), float(np.std(fitted)))
+
+
+def fit_all(candidates: list[Candidate], y, splits, settings: Settings) -> dict[str, Fit]:
+    """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
+    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, splits, settings) for c in candidates)
+    return {c.name: fit for c, fit in zip(candidates, fits)}
+
+
+def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float) -> bool:
+    return (fit.p_value < settings.alpha / max(1, n_tests) and fit.score < 0
+            and fit.effect_std > min_effect)
+
+
+def backfit(selected: list[Candidate], form_names: list[str], y, passes: int = 4) -> list[forms.Form]:
+    """Joint fit of several additive terms by backfitting."""
+    fitted = [np.zeros_like(y) for _ in selected]
+    models: list[forms.Form] = [None] * len(selected)
+    for _ in range(passes if len(selected) > 1 else 1):
+        for j, (candidate, name) in enumerate(zip(selected, form_names)):
+            partial = y - sum(fitted[k] for k in range(len(selected)) if k != j)
+            models[j] = fit_form(name, candidate.values, partial)
+            fitted[j] = models[j].predict(candidate.values)
+            fitted[j] -= fitted[j].mean()
+    return models
+
+
+# ---------------------------------------------------------------- diagnosis
+
+def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
+             surrogate_std: float = 0.0) -> Diagnosis:
+    """Rank candidate causes of ``residual`` (approximate residuals of in-support rows, in row order).
+
+    ``frame`` holds those rows' production columns; ``exclude`` names columns that
+    must not be candidates (the target). ``surrogate_std`` is the surrogate's own
+    predictive uncertainty (noise excluded) on these rows: a cause's term must
+    vary (standard deviation over the rows) by more than ``surrogate_margin``
+    times it, or it could be the surrogate's own error.
+    """
+    residual = np.asarray(residual, float)
+    frame = frame.reset_index(drop=True)
+    if len(residual) > settings.max_rows:
+        keep = np.sort(np.random.default_rng(settings.seed).choice(len(residual), settings.max_rows, replace=False))
+        frame, residual = frame.iloc[keep].reset_index(drop=True), residual[keep]
+    offset = float(residual.mean())
+    y = residual - offset
+    blocks = np.array_split(residual, min(settings.n_blocks, max(2, len(residual) // 20)))
+    offset_se = float(np.std([b.mean() for b in blocks], ddof=1) / np.sqrt(len(blocks)))
+    candidates, skipped = build_candidates(frame, inputs, exclude, settings)
+    splits = kfolds(len(y), settings.folds, settings.seed)
+    min_effect = settings.surrogate_margin * surrogate_std
+    n_tests = len(candidates)
+
+    marginal = fit_all(candidates, y, splits, settings)
+
+    # forward selection, each step conditional on the causes already chosen
+    selected: list[Fit] = []
+    conditional: dict[str, Fit] = dict(marginal)
+    remaining = y
+    while len(selected) < settings.max_causes:
+        pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}]
+        if not pool:
+            break
+        best = min(pool, key=lambda fit: (fit.score, fit.candidate.name))
+        if not is_significant(best, n_tests, settings, min_effect):
+            break
+        selected.append(best)
+        models = backfit([s.candidate for s in selected], [s.form.name for s in selected], y)
+        for fit, model in zip(selected, models):
+            fit.form = model
+        remaining = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
+        remaining = remaining - remaining.mean()
+        chosen = {s.candidate.name for s in selected}
+        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, splits, settings)
+
+    aliases, explained_by = _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect)
+    table = _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect)
+    return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, selected,
+                     aliases, explained_by)
+
+
+def _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect):
+    """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in, and vice versa?"""
+    by_name = {c.name: c for c in candidates}
+    aliases: dict[str, list[str]] = {}
+    explained_by: dict[str, str] = {}
+    chosen = {s.candidate.name for s in selected}
+    for cause in selected:
+        a = cause.candidate
+        a_share = marginal[a.name].explained_share
+        aliases[a.name] = []
+        # rivals built on A's own column are variants of A's form, not confounders
+        rivals = [fit for name, fit in marginal.items() if name not in chosen and name not in explained_by
+                  and not set(fit.candidate.columns) & set(a.columns)
+                  and fit.explained_share >= 0.5 * a_share and a_share > 0]
+        for rival in sorted(rivals, key=lambda f: -f.explained_share)[:8]:
+            b = rival.candidate
+            b_after_a = best_fit(b, _without(a, cause.form.name, y), splits, settings)
+            a_after_b = best_fit(a, _without(b, rival.form.name, y), splits, settings)
+            b_adds = is_significant(b_after_a, n_tests, settings, min_effect)
+            a_adds = is_significant(a_after_b, n_tests, settings, min_effect)
+            if not a_adds and not b_adds:
+                aliases[a.name].append(b.name)
+            elif a_adds and not b_adds:
+                explained_by[b.name] = a.name
+    return aliases, explained_by
+
+
+def _without(candidate: Candidate, form_name: str, y):
+    fitted = fit_form(form_name, candidate.values, y).predict(candidate.values)
+    remaining = y - fitted
+    return remaining - remaining.mean()
+
+
+def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect) -> pd.DataFrame:
+    chosen = [s.candidate.name for s in selected]
+    rows = []
+    for name, fit in marginal.items():
+        if name in chosen:
+            final = next(s for s in selected if s.candidate.name == name)
+            significant = True
+            conditional_share = final.explained_share
+            p_value = final.p_value
+            form = final.form
+            effect_range, effect_std = final.effect_range, final.effect_std
+        else:
+            after = conditional.get(name, fit)
+            significant = bool(is_significant(after, n_tests, settings, min_effect)) if selected else bool(
+                is_significant(fit, n_tests, settings, min_effect))
+            conditional_share = after.explained_share
+            p_value = after.p_value
+            form = fit.form
+            effect_range, effect_std = fit.effect_range, fit.effect_std
+        alias_of = [cause for cause, names in aliases.items() if name in names]
+        note = ""
+        if name in aliases and aliases[name]:
+            note = "cannot be told apart from " + ", ".join(aliases[name]) + " in this data"
+        elif alias_of:
+            note = f"cannot be told apart from {alias_of[0]} in this data"
+        elif name in explained_by:
+            note = f"explained by {explained_by[name]}: adds nothing once it is in"
+        elif not significant and any(set(fit.candidate.columns) & set(s.candidate.columns) for s in selected):
+            note = "a variant of a chosen cause's column: adds nothing beyond it"
+        rows.append({"cause": name, "kind": fit.candidate.kind, "form": form.name,
+                     "family": forms.FAMILIES[form.name], "n_params": int(form.n_params),
+                     "explained_share": fit.explained_share, "conditional_share": conditional_share,
+                     "effect_range": effect_range, "effect_std": effect_std, "p_value": p_value, "significant": significant,
+                     "selected": name in chosen, "description": form.describe(name), "note": note})
+    table = pd.DataFrame(rows)
+    order = {name: i for i, name in enumerate(chosen)}
+    table["_chosen"] = table["cause"].map(order).fillna(len(order))
+    table = table.sort_values(["_chosen", "explained_share", "cause"], ascending=[True, False, True],
+                              kind="stable").drop(columns="_chosen")
+    table.insert(0, "rank", np.arange(1, len(table) + 1))
+    if skipped:
+        log.info("columns not used as candidates: %s", skipped)
+    return table.reset_index(drop=True)

@@ -1,0 +1,240 @@
+"""Small, physically plausible discrepancy forms g(cause; theta), fitted by least squares.
+
+Every form has ``fit(x, y)``, ``predict(x)``, ``n_params`` (free parameters
+besides the intercept) and ``to_dict``/``form_from_dict`` for JSON model files.
+``x`` is a 1-D float array, except for ``group`` (level labels) and
+``product`` (an (n, 2) array).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+from sklearn.isotonic import IsotonicRegression
+
+FAMILIES = {"linear": "linear", "quadratic": "polynomial", "sigmoid": "saturating", "step": "step",
+            "monotone": "monotone trend", "group": "group offsets", "product": "interaction"}
+
+
+def _logistic(z):
+    return 0.5 * (1.0 + np.tanh(0.5 * z))
+
+
+class Form:
+    name = ""
+    n_params = 0
+
+    def to_dict(self) -> dict:
+        return {"form": self.name, **{k: _plain(v) for k, v in vars(self).items()}}
+
+    def describe(self, column: str, unit: str = "mm") -> str:
+        raise NotImplementedError
+
+
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    return value
+
+
+class Linear(Form):
+    name, n_params = "linear", 1
+
+    def fit(self, x, y):
+        self.slope, self.intercept = np.polyfit(x, y, 1)
+        return self
+
+    def predict(self, x):
+        return self.intercept + self.slope * np.asarray(x, float)
+
+    def describe(self, column, unit="mm"):
+        return f"linear: {self.slope:+.4g} {unit} per unit of {column}"
+
+
+class Quadratic(Form):
+    name, n_params = "quadratic", 2
+
+    def fit(self, x, y):
+        self.center = float(np.mean(x))
+        self.coefficients = np.polyfit(np.asarray(x, float) - self.center, y, 2)
+        return self
+
+    def predict(self, x):
+        return np.polyval(self.coefficients, np.asarray(x, float) - self.center)
+
+    def describe(self, column, unit="mm"):
+        a, b, _ = self.coefficients
+        return f"quadratic in {column}, vertex at {self.center - b / (2 * a):.4g}" if a else "quadratic"
+
+
+class Sigmoid(Form):
+    """intercept + amplitude * logistic((x - threshold) / width): a saturating change."""
+
+    name, n_params = "sigmoid", 3
+
+    def fit(self, x, y):
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        low, high = np.percentile(x, [2, 98])
+        spread = (high - low) or 1.0
+        thresholds = np.percentile(x, np.linspace(5, 95, 19))
+        widths = spread * np.array([0.01, 0.03, 0.08, 0.2, 0.5])
+        best = None
+        for width in widths:
+            S = _logistic((x[:, None] - thresholds[None, :]) / width)
+            s_mean = S.mean(axis=0)
+            centered = S - s_mean
+            var = (centered**2).sum(axis=0)
+            amplitude = np.where(var > 0, centered.T @ (y - y.mean()) / np.where(var > 0, var, 1), 0.0)
+            sse = ((y - y.mean()) ** 2).sum() - amplitude**2 * var
+            j = int(np.argmin(sse))
+            if best is None or sse[j] < best[0]:
+                best = (sse[j], y.mean() - amplitude[j] * s_mean[j], amplitude[j], thresholds[j], width)
+        _, intercept, amplitude, threshold, width = best
+        scale = spread
+
+        def residuals(theta):
+            return theta[0] + theta[1] * _logistic((x - theta[2] * scale) / (np.exp(theta[3]) * scale)) - y
+
+        def jacobian(theta):
+            width_ = np.exp(theta[3]) * scale
+            z = (x - theta[2] * scale) / width_
+            s = _logistic(z)
+            ds = theta[1] * s * (1.0 - s)
+            return np.column_stack([np.ones_like(x), s, -ds * scale / width_, -ds * z])
+
+        start = [intercept, amplitude, threshold / scale, np.log(width / scale)]
+        bounds = ([-np.inf, -np.inf, low / scale - 0.5, np.log(1e-3)], [np.inf, np.inf, high / scale + 0.5, np.log(5.0)])
+        start[2] = float(np.clip(start[2], bounds[0][2], bounds[1][2]))
+        solution = least_squares(residuals, start, jac=jacobian, bounds=bounds, x_scale="jac", max_nfev=100)
+        self.intercept, self.amplitude = float(solution.x[0]), float(solution.x[1])
+        self.threshold, self.width = float(solution.x[2] * scale), float(np.exp(solution.x[3]) * scale)
+        return self
+
+    def predict(self, x):
+        return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
+
+    def describe(self, column, unit="mm"):
+        return (f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
+                f"(10-90% over {4.39 * self.width:.3g})")
+
+
+class Step(Form):
+    """intercept + jump * [x >= threshold], the best split found exactly by sorting."""
+
+    name, n_params = "step", 2
+
+    def fit(self, x, y, min_share: float = 0.02):
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        order = np.argsort(x, kind="stable")
+        xs, ys = x[order], y[order]
+        n = len(ys)
+        left_sum = np.cumsum(ys)[:-1]
+        left_n = np.arange(1, n)
+        right_sum = ys.sum() - left_sum
+        gain = left_sum**2 / left_n + right_sum**2 / (n - left_n)
+        valid = (xs[1:] > xs[:-1]) & (left_n >= max(1, min_share * n)) & (n - left_n >= max(1, min_share * n))
+        if not valid.any():
+            self.threshold, self.low, self.jump = float(xs[-1]) + 1.0, float(ys.mean()), 0.0
+            return self
+        i = int(np.argmax(np.where(valid, gain, -np.inf)))
+        self.threshold = float((xs[i] + xs[i + 1]) / 2)
+        self.low = float(left_sum[i] / left_n[i])
+        self.jump = float(right_sum[i] / (n - left_n[i]) - self.low)
+        return self
+
+    def predict(self, x):
+        return self.low + self.jump * (np.asarray(x, float) >= self.threshold)
+
+    def describe(self, column, unit="mm"):
+        return f"step of {self.jump:+.3g} {unit} at {column} = {self.threshold:.4g}"
+
+
+class Monotone(Form):
+    """Isotonic (increasing or decreasing) trend; its parameters are its distinct levels."""
+
+    name = "monotone"
+
+    def fit(self, x, y):
+        model = IsotonicRegression(increasing="auto", out_of_bounds="clip").fit(x, y)
+        self.knots_x = np.asarray(model.X_thresholds_, float)
+        self.knots_y = np.asarray(model.y_thresholds_, float)
+        return self
+
+    @property
+    def n_params(self):
+        return max(1, len(np.unique(np.round(self.knots_y, 12))) - 1)
+
+    def predict(self, x):
+        return np.interp(np.asarray(x, float), self.knots_x, self.knots_y)
+
+    def describe(self, column, unit="mm"):
+        change = self.knots_y[-1] - self.knots_y[0]
+        return f"monotone trend of {change:+.3g} {unit} over {column} {self.knots_x[0]:.4g}..{self.knots_x[-1]:.4g}"
+
+
+class Group(Form):
+    """One offset per level; a level never seen in fitting gets the overall mean."""
+
+    name = "group"
+
+    def fit(self, x, y):
+        labels = np.asarray(x).astype(str)
+        levels, codes = np.unique(labels, return_inverse=True)
+        sums = np.bincount(codes, weights=np.asarray(y, float))
+        counts = np.bincount(codes)
+        self.overall = float(np.mean(y))
+        self.offsets = dict(zip(levels.tolist(), (sums / counts).tolist()))
+        return self
+
+    @property
+    def n_params(self):
+        return max(1, len(self.offsets) - 1)
+
+    def predict(self, x):
+        labels = np.asarray(x).astype(str)
+        levels, codes = np.unique(labels, return_inverse=True)
+        values = np.array([self.offsets.get(level, self.overall) for level in levels.tolist()], float)
+        return values[codes] if len(levels) else np.empty(0)
+
+    def describe(self, column, unit="mm"):
+        values = np.array(list(self.offsets.values()))
+        return f"offsets per {column} level: {len(values)} levels, sd {values.std():.3g} {unit}"
+
+
+class Product(Form):
+    """Bilinear interaction: c0 + c1*a + c2*b + c3*a*b (the linear parts absorb the centring)."""
+
+    name, n_params = "product", 3
+
+    def fit(self, x, y):
+        a, b = np.asarray(x, float).T
+        self.center = [float(a.mean()), float(b.mean())]
+        self.coefficients = np.linalg.lstsq(self._design(a, b), np.asarray(y, float), rcond=None)[0]
+        return self
+
+    def _design(self, a, b):
+        a, b = a - self.center[0], b - self.center[1]
+        return np.column_stack([np.ones_like(a), a, b, a * b])
+
+    def predict(self, x):
+        a, b = np.asarray(x, float).T
+        return self._design(a, b) @ np.asarray(self.coefficients, float)
+
+    def describe(self, column, unit="mm"):
+        return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
+
+
+NUMERIC_FORMS = (Linear, Quadratic, Sigmoid, Step, Monotone)
+FORMS = {cls.name: cls for cls in (*NUMERIC_FORMS, Group, Product)}
+
+
+def form_from_dict(data: dict) -> Form:
+    form = FORMS[data["form"]].__new__(FORMS[data["form"]])
+    for key, value in data.items():
+        if key == "form":
+            continue
+        setattr(form, key, np.asarray(value, float) if isinstance(value, list) else value)
+    return form
