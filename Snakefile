@@ -20,6 +20,7 @@ include: "workflow/rules/data.smk"
 include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/residual.smk"
 include: "workflow/rules/evaluation.smk"
+include: "workflow/rules/diagnosis.smk"
 
 
 rule all:

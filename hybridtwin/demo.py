@@ -92,9 +92,9 @@ class DemoPlant:
     n_matched: int = 7
     fe_scatter_mm: float = 1.3
     noise_mm: float = 1.4
-    offset_mm: float = 18.0
+    offset_mm: float = 15.0
     hidden_effect: HiddenEffect = field(default_factory=lambda: HiddenEffect(
-        form="sigmoid", column="die_temp_c", amplitude=-15.0, threshold=45.0, width=3.0))
+        form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=48.0, width=3.5))
 
 
 def _unit(frame: pd.DataFrame, name: str) -> np.ndarray:
@@ -186,9 +186,6 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
 
     ambient = (21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0)
                + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n))
-    warm = rng.uniform(24, 38, n_runs)[run]
-    tau_s = rng.uniform(30, 60, n_runs)[run] * 60
-    die = ambient + 2.0 + warm * (1 - np.exp(-in_run_s / tau_s)) + rng.normal(0, 0.6, n)
 
     # coils: ~1,800 blanks each; Rm and Rp0.2 move together from coil to coil
     coil = np.cumsum(rng.random(n) < 1 / 1800.0)
@@ -203,6 +200,11 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
 
     campaigns = rng.uniform(CAMPAIGN_LOW, CAMPAIGN_HIGH, (n_runs, 6))
     settings = campaigns[run] + rng.normal(0, [0.01, 0.01, 3, 3, 3, 3], (n, 6))
+
+    # the die warms up within each run, more under higher blank-holder (cushion) forces
+    warm = rng.uniform(18, 30, n_runs)[run] + 0.22 * (settings[:, 2:].mean(axis=1) - 290.0)
+    tau_s = rng.uniform(30, 60, n_runs)[run] * 60
+    die = ambient + 2.0 + warm * (1 - np.exp(-in_run_s / tau_s)) + rng.normal(0, 0.6, n)
 
     setup_strokes = rng.integers(20, 400, n_runs)
     strokes = 250_000 + np.arange(n) + np.cumsum(setup_strokes)[run]

@@ -36,6 +36,7 @@ class Candidate:
     kind: str  # "input", "log", "time", "group", "interaction"
     values: np.ndarray
     columns: tuple[str, ...]
+    origin: str | None = None  # time candidates: the timestamp elapsed hours count from
 
     @property
     def form_names(self) -> tuple[str, ...]:
@@ -97,6 +98,9 @@ class Diagnosis:
     surrogate_std: float
     min_effect: float
     table: pd.DataFrame
+    y: np.ndarray
+    candidates: dict[str, Candidate]
+    skipped: dict[str, str]
     selected: list[Fit] = field(default_factory=list)
     aliases: dict[str, list[str]] = field(default_factory=dict)
     explained_by: dict[str, str] = field(default_factory=dict)
@@ -104,7 +108,7 @@ class Diagnosis:
 
 # ---------------------------------------------------------------- candidates
 
-def elapsed_hours(values: pd.Series, origin: pd.Timestamp | None = None) -> np.ndarray | None:
+def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
     """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
     text = values.astype(str)
     stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
@@ -112,15 +116,34 @@ def elapsed_hours(values: pd.Series, origin: pd.Timestamp | None = None) -> np.n
         stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
     if stamps.isna().mean() > 0.01:
         return None
-    origin = stamps.min() if origin is None else origin
-    return ((stamps - origin).dt.total_seconds() / 3600.0).to_numpy(float)
+    start = stamps.min() if origin is None else pd.Timestamp(origin)
+    return ((stamps - start).dt.total_seconds() / 3600.0).to_numpy(float)
+
+
+def cause_values(frame: pd.DataFrame, kind: str, columns, origin: str | None = None) -> np.ndarray:
+    """The values a cause's form is fitted on: numbers, elapsed hours, level labels or a column pair."""
+    if kind == "interaction":
+        return np.column_stack([frame[c].to_numpy(float) for c in columns])
+    if kind == "time":
+        return elapsed_hours(frame[columns[0]], origin)
+    if kind == "group":
+        return frame[columns[0]].astype(str).to_numpy()
+    return frame[columns[0]].to_numpy(float)
+
+
+def time_origin(values: pd.Series) -> str:
+    text = values.astype(str)
+    stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
+    if stamps.isna().mean() > 0.01:
+        stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
+    return str(stamps.min())
 
 
 def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -> tuple[list[Candidate], dict[str, str]]:
     """Candidate causes from every usable column, and the reasons others were skipped."""
     candidates, skipped = [], {}
     for column in frame.columns:
-        if column in exclude:
+        if column in exclude or column in settings.exclude:
             continue
         values = frame[column]
         if values.nunique(dropna=False) < 2:
@@ -135,7 +158,7 @@ def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -
             continue
         hours = elapsed_hours(values)
         if hours is not None:
-            candidates.append(Candidate(column, "time", hours, (column,)))
+            candidates.append(Candidate(column, "time", hours, (column,), time_origin(values)))
         elif values.nunique() <= settings.max_levels:
             candidates.append(Candidate(column, "group", values.astype(str).to_numpy(), (column,)))
         else:
@@ -172,11 +195,16 @@ def block_p_value(y, oof, n_blocks: int) -> float:
     return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
 
 
-def best_fit(candidate: Candidate, y, splits, settings: Settings) -> Fit:
-    """The candidate's form with the lowest penalized held-out error."""
+def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: float = 0.0) -> Fit:
+    """The candidate's form with the lowest penalized held-out error.
+
+    A simpler form wins over a more complex one whose fitted curve differs from
+    it by less than ``min_effect`` (standard deviation over the rows): such a
+    difference could be the surrogate's own error.
+    """
     n = len(y)
     null_mse = float(np.mean(y**2))
-    best = None
+    tried = []
     for name in candidate.form_names:
         try:
             oof = held_out(name, candidate.values, y, splits)
@@ -186,17 +214,30 @@ def best_fit(candidate: Candidate, y, splits, settings: Settings) -> Fit:
             continue
         cv_mse = float(np.mean((y - oof) ** 2))
         score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n)
-        if best is None or score < best[0]:
-            best = (score, name, oof, full, cv_mse)
-    score, name, oof, full, cv_mse = best
-    fitted = full.predict(candidate.values)
+        tried.append((score, full.n_params, name, oof, full, cv_mse, full.predict(candidate.values)))
+    best = min(tried, key=lambda t: (t[0], t[1]))
+    simpler = [t for t in tried if t[1] < best[1] and np.std(t[6] - best[6]) < min_effect]
+    if simpler:
+        best = min(simpler, key=lambda t: (t[1], t[0]))
+    score, _, name, oof, full, cv_mse, fitted = best
     return Fit(candidate, full, oof, cv_mse, null_mse, score - (n * np.log(max(null_mse, 1e-300))),
                block_p_value(y, oof, settings.n_blocks), float(np.ptp(fitted)), float(np.std(fitted)))
 
 
-def fit_all(candidates: list[Candidate], y, splits, settings: Settings) -> dict[str, Fit]:
+def prefer_main_effect(best: Fit, pool: list[Fit], min_effect: float) -> Fit:
+    """An interaction a*b gives way to a or b alone when it predicts about the same (nested models)."""
+    if best.candidate.kind != "interaction":
+        return best
+    fitted = best.form.predict(best.candidate.values)
+    mains = [fit for fit in pool if fit.candidate.kind != "interaction"
+             and set(fit.candidate.columns) <= set(best.candidate.columns)
+             and np.std(fit.form.predict(fit.candidate.values) - fitted) < min_effect]
+    return min(mains, key=lambda fit: (fit.score, fit.candidate.name)) if mains else best
+
+
+def fit_all(candidates: list[Candidate], y, splits, settings: Settings, min_effect: float) -> dict[str, Fit]:
     """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
-    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, splits, settings) for c in candidates)
+    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, splits, settings, min_effect) for c in candidates)
     return {c.name: fit for c, fit in zip(candidates, fits)}
 
 
@@ -244,7 +285,7 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     min_effect = settings.surrogate_margin * surrogate_std
     n_tests = len(candidates)
 
-    marginal = fit_all(candidates, y, splits, settings)
+    marginal = fit_all(candidates, y, splits, settings, min_effect)
 
     # forward selection, each step conditional on the causes already chosen
     selected: list[Fit] = []
@@ -254,7 +295,7 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}]
         if not pool:
             break
-        best = min(pool, key=lambda fit: (fit.score, fit.candidate.name))
+        best = prefer_main_effect(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect)
         if not is_significant(best, n_tests, settings, min_effect):
             break
         selected.append(best)
@@ -264,12 +305,12 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         remaining = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
         remaining = remaining - remaining.mean()
         chosen = {s.candidate.name for s in selected}
-        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, splits, settings)
+        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, splits, settings, min_effect)
 
     aliases, explained_by = _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect)
     table = _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect)
-    return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, selected,
-                     aliases, explained_by)
+    return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, y,
+                     {c.name: c for c in candidates}, skipped, selected, aliases, explained_by)
 
 
 def _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect):
@@ -288,8 +329,8 @@ def _confounding(selected, marginal, candidates, y, splits, settings, n_tests, m
                   and fit.explained_share >= 0.5 * a_share and a_share > 0]
         for rival in sorted(rivals, key=lambda f: -f.explained_share)[:8]:
             b = rival.candidate
-            b_after_a = best_fit(b, _without(a, cause.form.name, y), splits, settings)
-            a_after_b = best_fit(a, _without(b, rival.form.name, y), splits, settings)
+            b_after_a = best_fit(b, _without(a, cause.form.name, y), splits, settings, min_effect)
+            a_after_b = best_fit(a, _without(b, rival.form.name, y), splits, settings, min_effect)
             b_adds = is_significant(b_after_a, n_tests, settings, min_effect)
             a_adds = is_significant(a_after_b, n_tests, settings, min_effect)
             if not a_adds and not b_adds:
@@ -348,3 +389,85 @@ def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_te
     if skipped:
         log.info("columns not used as candidates: %s", skipped)
     return table.reset_index(drop=True)
+
+
+def summary_dict(result: Diagnosis) -> dict:
+    """What the later steps and the report need: offset, chosen causes (JSON-safe), confounding."""
+    return {
+        "offset": result.offset, "offset_se": result.offset_se, "n_rows": result.n_rows,
+        "residual_std": result.residual_std, "surrogate_std": result.surrogate_std, "min_effect": result.min_effect,
+        "selected": [{"name": f.candidate.name, "kind": f.candidate.kind, "columns": list(f.candidate.columns),
+                      "form": f.form.name, "origin": f.candidate.origin, "family": forms.FAMILIES[f.form.name],
+                      "description": f.form.describe(f.candidate.name), "parameters": f.form.to_dict(),
+                      "explained_share": f.explained_share, "effect_range": f.effect_range,
+                      "effect_std": f.effect_std, "p_value": f.p_value} for f in result.selected],
+        "aliases": result.aliases, "explained_by": result.explained_by, "skipped": result.skipped,
+    }
+
+
+def partial_residual(result: Diagnosis, y: np.ndarray, index: int) -> np.ndarray:
+    """The offset-free residual less every chosen term but the ``index``-th."""
+    others = [f for j, f in enumerate(result.selected) if j != index]
+    return y - sum((f.form.predict(f.candidate.values) for f in others), np.zeros_like(y))
+
+
+def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20, n_boot: int = 30) -> dict:
+    """Data for a cause's figure: binned residual, the fitted form on a grid and a bootstrap 95% band.
+
+    A chosen cause is shown against its partial residual (the other chosen terms
+    removed); any other candidate against the residual left by all chosen terms.
+    """
+    candidate = result.candidates[name]
+    chosen = [f.candidate.name for f in result.selected]
+    if name in chosen:
+        index = chosen.index(name)
+        y, form = partial_residual(result, result.y, index), result.selected[index].form
+    else:
+        y = partial_residual(result, result.y, -1)
+        form_name = str(result.table.set_index("cause").loc[name, "form"])
+        form = fit_form(form_name, candidate.values, y)
+    profile = {"name": name, "kind": candidate.kind, "form": form.name, "description": form.describe(name),
+               "selected": name in chosen}
+    if candidate.kind == "group":
+        frame = pd.DataFrame({"level": candidate.values, "y": y})
+        stats_ = frame.groupby("level")["y"].agg(["mean", "count", "std"]).sort_index()
+        profile.update(levels=stats_.index.tolist(), mean=stats_["mean"].to_numpy(),
+                       se=(stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
+                       fitted=form.predict(np.asarray(stats_.index)))
+        return profile
+    x = candidate.values if candidate.kind != "interaction" else form.predict(candidate.values)
+    if candidate.kind == "interaction":
+        form = Identity()
+    edges = np.unique(np.percentile(x, np.linspace(0, 100, n_bins + 1)))
+    which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
+    binned = pd.DataFrame({"bin": which, "x": x, "y": y}).groupby("bin").agg(
+        center=("x", "mean"), mean=("y", "mean"), std=("y", "std"), count=("y", "size"))
+    binned["se"] = binned["std"].fillna(0) / np.sqrt(binned["count"])
+    grid = np.linspace(x.min(), x.max(), 200)
+    rng = np.random.default_rng(seed)
+    curves = []
+    for _ in range(n_boot if not isinstance(form, Identity) else 0):
+        pick = rng.choice(len(y), min(len(y), 4000), replace=True)
+        curves.append(fit_form(form.name, x[pick], y[pick]).predict(grid))
+    curve = form.predict(grid)
+    low, high = (np.percentile(curves, [2.5, 97.5], axis=0) if curves else (curve, curve))
+    profile.update(binned=binned, grid=grid, curve=curve, band_low=low, band_high=high,
+                   xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [mm]")
+    if candidate.kind == "time":
+        profile["xlabel"] = f"{name}: hours since {candidate.origin}"
+    return profile
+
+
+class Identity(forms.Form):
+    """The fitted term against itself, for plotting interactions."""
+
+    name = "identity"
+
+    def predict(self, x):
+        return np.asarray(x, float)
+
+
+def surrogate_latent_std(predictive_std, noise_std: float) -> float:
+    """Mean predictive std of the surrogate's mean (the learned noise taken out): its own uncertainty."""
+    variance = np.asarray(predictive_std, float) ** 2 - float(noise_std) ** 2
+    return float(np.mean(np.sqrt(np.clip(variance, 0.0, None))))

@@ -86,7 +86,9 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
                      "error_std": float(np.std(error, ddof=1)) if len(error) > 1 else 0.0})
     summary = pd.DataFrame(rows)
     summary["evaluated_on"] = "matched cases only (never used for training or tuning); error = reference - prediction"
-    cases = pd.DataFrame({"true_residual": true_residual, "pred_residual": residual_pred,
+    cases = pd.DataFrame({"measured": measured, "simulated": simulated, "pred_surrogate": surrogate,
+                          "pred_hybrid": hybrid, "pred_hybrid_gated": hybrid_gated,
+                          "true_residual": true_residual, "pred_residual": residual_pred,
                           "error_simulation": measured - simulated, "error_surrogate": measured - surrogate,
                           "error_hybrid": measured - hybrid, "error_hybrid_gated": measured - hybrid_gated})
     return summary, cases

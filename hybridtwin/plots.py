@@ -78,20 +78,36 @@ def error_distributions(groups: dict[str, dict[str, np.ndarray]]):
     return figure
 
 
-def cause_effect(values, residual, curve_x, curve_y, band, title: str, xlabel: str, categorical: bool = False):
-    """Residual against a candidate cause, binned, with the fitted form and its band."""
-    figure, axis = plt.subplots(figsize=(6, 3.8))
-    if categorical:
-        positions = np.arange(len(curve_x))
-        axis.errorbar(positions, curve_y, yerr=band, fmt="o", color="C3", label="fitted group offset ± 2 SE")
-        axis.scatter(positions, values, s=20, color="0.4", marker="_", label="group mean residual")
-        axis.set_xticks(positions, curve_x, rotation=90, fontsize=6)
+def cause_profile(profile: dict, rank: int, significant: bool):
+    """Residual against a candidate cause, binned, with the fitted form and its 95% band."""
+    figure, axis = plt.subplots(figsize=(6.5, 4))
+    status = "significant" if significant else "not significant"
+    if profile["kind"] == "group":
+        positions = np.arange(len(profile["levels"]))
+        axis.errorbar(positions, profile["mean"], yerr=2 * profile["se"], fmt="o", ms=3, color="0.3",
+                      label="residual per level (mean ± 2 SE)")
+        axis.scatter(positions, profile["fitted"], marker="_", s=120, color="C3", label="fitted group offset")
+        step = max(1, len(positions) // 30)
+        axis.set_xticks(positions[::step], [str(v) for v in profile["levels"]][::step], rotation=90, fontsize=6)
+        axis.set_xlabel(profile["name"])
     else:
-        axis.errorbar(values["center"], values["mean"], yerr=2 * values["se"], fmt="o", ms=3, color="0.3",
+        binned = profile["binned"]
+        axis.errorbar(binned["center"], binned["mean"], yerr=2 * binned["se"], fmt="o", ms=3, color="0.3",
                       label="binned residual (mean ± 2 SE)")
-        axis.plot(curve_x, curve_y, color="C3", lw=2, label="fitted form")
-        axis.fill_between(curve_x, curve_y - band, curve_y + band, color="C3", alpha=0.2, label="95% band")
+        axis.plot(profile["grid"], profile["curve"], color="C3", lw=2, label=f"fitted form: {profile['form']}")
+        axis.fill_between(profile["grid"], profile["band_low"], profile["band_high"], color="C3", alpha=0.2,
+                          label="95% band (bootstrap)")
+        axis.set_xlabel(profile["xlabel"])
     axis.axhline(0, color="k", lw=0.6)
-    axis.set(xlabel=xlabel, ylabel="offset-free residual [mm]", title=title)
+    axis.set_ylabel("offset-free residual [mm]")
+    axis.set_title(f"Cause {rank}: {profile['name']} ({status})\n{profile['description']}", fontsize=8)
     axis.legend(fontsize=7)
+    return figure
+
+
+def placeholder(text: str):
+    """A figure that says why there is nothing to show (fewer candidates than figure slots)."""
+    figure, axis = plt.subplots(figsize=(6.5, 4))
+    axis.text(0.5, 0.5, text, ha="center", va="center", wrap=True)
+    axis.set_axis_off()
     return figure

@@ -8,6 +8,7 @@ FOLDS = config["cv"]["folds"]
 TABLES = "results/tables"
 FIGURES = "results/figures"
 MODELS = "results/models"
+DEMO = "results/demo"
 
 
 def log_of(rule_name, suffix=""):
@@ -20,11 +21,18 @@ def benchmark_of(rule_name, suffix=""):
 
 def final_outputs():
     tables = ["table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
-              "table5_sensitivity", "matched_check"]
+              "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension"]
     figures = ["figure2_residual_check", "figure3_error_distributions", "support_distances", "surrogate_parity"]
     return (
         [f"{TABLES}/{name}.csv" for name in tables]
         + [f"{FIGURES}/{name}.png" for name in figures]
         + ["results/predictions/production.csv", "results/synthetic/doe_corrected.csv",
-           "results/synthetic/support_samples.csv"]
+           "results/synthetic/support_samples.csv", "results/diagnosis.md"]
     )
+
+
+def demo_truth_inputs(wildcards):
+    """The demo's noise-free truth, when the run is on the demo data."""
+    if config["data"]["production"] != f"{DEMO}/production.csv":
+        return {}
+    return {"truth": f"{DEMO}/production_truth.csv", "demo_spec": f"{DEMO}/demo_spec.json"}

@@ -3,14 +3,16 @@
 
 rule demo_data:
     output:
-        doe="results/demo/doe.csv",
-        production="results/demo/production.csv",
-        matched="results/demo/matched.csv",
-        production_truth="results/demo/production_truth.csv",
-        matched_truth="results/demo/matched_truth.csv",
-        spec="results/demo/demo_spec.json",
+        doe=f"{DEMO}/doe.csv",
+        production=f"{DEMO}/production.csv",
+        matched=f"{DEMO}/matched.csv",
+        production_truth=f"{DEMO}/production_truth.csv",
+        matched_truth=f"{DEMO}/matched_truth.csv",
+        spec=f"{DEMO}/demo_spec.json",
     params:
         demo=config["demo"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("demo_data"),
     benchmark:
@@ -31,6 +33,8 @@ rule validate_inputs:
         report="results/data/validation_report.txt",
     params:
         settings={key: config[key] for key in ("data", "columns", "csv", "cv", "gate")},
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("validate_inputs"),
     benchmark:
@@ -47,6 +51,8 @@ rule standardize:
         table=f"{TABLES}/doe_standardization.csv",
     params:
         inputs=INPUTS,
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("standardize"),
     benchmark:
@@ -72,6 +78,8 @@ rule support_gate:
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
         paths=config["data"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("support_gate"),
     benchmark:
@@ -90,6 +98,8 @@ rule table1:
     params:
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("table1"),
     benchmark:

@@ -11,9 +11,11 @@ rule predict_production:
         filtered_oof="results/residuals/oof_filtered.csv",
         unfiltered_oof="results/residuals/oof_unfiltered.csv",
     output:
-        predictions="results/predictions/production.csv",
+        predictions="results/predictions/hybrid.csv",
     params:
         inputs=INPUTS,
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("predict_production"),
     benchmark:
@@ -39,6 +41,8 @@ rule matched_check:
         inputs=INPUTS,
         matched_simulated=config["columns"]["matched_simulated"],
         matched_measured=config["columns"]["matched_measured"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("matched_check"),
     benchmark:
@@ -54,6 +58,8 @@ rule figure_errors:
     output:
         figure=report(f"{FIGURES}/figure3_error_distributions.png", caption="../report/figure3.rst",
                       category="4. Hybrid evaluation"),
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("figure_errors"),
     benchmark:
@@ -68,6 +74,8 @@ rule sensitivity:
     output:
         table=report(f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst",
                      category="4. Hybrid evaluation"),
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("sensitivity"),
     benchmark:
@@ -91,6 +99,8 @@ rule synthetic:
         target=TARGET,
         seed=SEED,
         n_samples=config["synthetic"]["n_samples"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("synthetic"),
     benchmark:

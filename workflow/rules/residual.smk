@@ -19,6 +19,8 @@ rule tune_residual:
         # the study journal lives outside the outputs, so a killed run resumes it
         storage=config["tuning"]["storage"],
     threads: 2
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("tune_residual"),
     benchmark:
@@ -43,6 +45,8 @@ rule residual_cv:
         folds=FOLDS,
         seed=SEED,
     threads: 2
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("residual_cv", "_{training}"),
     benchmark:
@@ -57,6 +61,8 @@ rule table3:
     output:
         table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst",
                      category="3. Residual model"),
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("table3"),
     benchmark:
@@ -78,6 +84,8 @@ rule residual_fit:
         inputs=INPUTS,
         seed=SEED,
     threads: 2
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("residual_fit", "_{training}"),
     benchmark:

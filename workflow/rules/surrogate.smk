@@ -15,6 +15,8 @@ rule surrogate_cv:
         folds=FOLDS,
         seed=SEED,
         n_restarts=config["surrogate"]["n_restarts"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("surrogate_cv"),
     benchmark:
@@ -33,6 +35,8 @@ rule surrogate_fit:
         target=TARGET,
         seed=SEED,
         n_restarts=config["surrogate"]["n_restarts"],
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("surrogate_fit"),
     benchmark:
@@ -51,6 +55,8 @@ rule residuals:
     params:
         inputs=INPUTS,
         target=TARGET,
+    conda:
+        "../envs/hybridtwin.yaml"
     log:
         log_of("residuals"),
     benchmark:

@@ -1,0 +1,154 @@
+"""The physics-side extension: extended(x) = surrogate(x) + offset + sum_j g_j(cause_j; theta_j).
+
+The causes and their forms come from the diagnosis; their few parameters are
+refitted here on the in-support rows (by backfitting when there are several).
+The extended hybrid adds an XGBoost model of what the extension leaves over.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, RegressorMixin
+
+from . import forms
+from .diagnosis import cause_values
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Cause:
+    name: str
+    kind: str
+    columns: tuple[str, ...]
+    form: str
+    origin: str | None = None
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Cause":
+        return cls(data["name"], data["kind"], tuple(data["columns"]), data["form"], data.get("origin"))
+
+
+class DiscrepancyExtension(RegressorMixin, BaseEstimator):
+    """Offset plus the diagnosed terms; ``fit(frame, residual)`` / ``predict(frame)`` give the residual correction.
+
+    ``frame`` is a table of production columns (it must hold the causes' columns;
+    at prediction a missing column contributes zero, the term's mean).
+    """
+
+    def __init__(self, causes: tuple = ()):
+        self.causes = causes
+
+    def _causes(self) -> list[Cause]:
+        return [c if isinstance(c, Cause) else Cause.from_dict(c) for c in self.causes]
+
+    def fit(self, frame: pd.DataFrame, residual):
+        residual = np.asarray(residual, float)
+        self.offset_ = float(residual.mean())
+        causes = self._causes()
+        values = [cause_values(frame, c.kind, c.columns, c.origin) for c in causes]
+        fitted = [np.zeros_like(residual) for _ in causes]
+        self.forms_ = [None] * len(causes)
+        self.means_ = [0.0] * len(causes)
+        target = residual - self.offset_
+        for _ in range(4 if len(causes) > 1 else 1):
+            for j, cause in enumerate(causes):
+                partial = target - sum(fitted[k] for k in range(len(causes)) if k != j)
+                self.forms_[j] = forms.FORMS[cause.form]().fit(values[j], partial)
+                raw = self.forms_[j].predict(values[j])
+                self.means_[j] = float(raw.mean())
+                fitted[j] = raw - self.means_[j]
+        return self
+
+    def terms(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:
+        """Each cause's centred contribution; zero where the frame lacks the cause's column."""
+        out = {}
+        for cause, form, mean in zip(self._causes(), self.forms_, self.means_):
+            if not set(cause.columns) <= set(frame.columns):
+                log.warning("no column %s here: the %s term is set to its mean (0)", cause.columns, cause.name)
+                out[cause.name] = np.zeros(len(frame))
+                continue
+            out[cause.name] = form.predict(cause_values(frame, cause.kind, cause.columns, cause.origin)) - mean
+        return out
+
+    def predict(self, frame: pd.DataFrame) -> np.ndarray:
+        return self.offset_ + sum(self.terms(frame).values(), np.zeros(len(frame)))
+
+    def to_dict(self) -> dict:
+        return {"format": "hybridtwin.DiscrepancyExtension/1", "offset": self.offset_,
+                "causes": [asdict(c) for c in self._causes()],
+                "forms": [f.to_dict() for f in self.forms_], "means": self.means_}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "DiscrepancyExtension":
+        model = cls(causes=tuple(Cause.from_dict(c) for c in data["causes"]))
+        model.offset_ = float(data["offset"])
+        model.forms_ = [forms.form_from_dict(f) for f in data["forms"]]
+        model.means_ = [float(m) for m in data["means"]]
+        return model
+
+
+def causes_from_diagnosis(selected) -> tuple[Cause, ...]:
+    """The diagnosis' chosen causes as extension terms."""
+    return tuple(Cause(f.candidate.name, f.candidate.kind, f.candidate.columns, f.form.name, f.candidate.origin)
+                 for f in selected)
+
+
+@dataclass
+class Models:
+    """The four predictors of the residual correction, fitted on in-support rows."""
+
+    extension: DiscrepancyExtension
+    remainder: object  # XGBoost model of residual - extension
+
+
+def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, causes, make_xgb) -> Models:
+    extension = DiscrepancyExtension(causes).fit(frame, residual)
+    remainder = make_xgb().fit(X, residual - extension.predict(frame))
+    return Models(extension, remainder)
+
+
+def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, causes, make_xgb, splits):
+    """Out-of-fold residual corrections of the extension and the extended hybrid."""
+    extended = np.empty(len(residual))
+    extended_hybrid = np.empty(len(residual))
+    for train, test in splits:
+        models = fit_models(frame.iloc[train], X[train], residual[train], causes, make_xgb)
+        extended[test] = models.extension.predict(frame.iloc[test])
+        extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
+    return extended, extended_hybrid
+
+
+def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched_measured,
+               matched_predictions: dict[str, np.ndarray], truth=None, noise: float | None = None) -> pd.DataFrame:
+    """model_extension.csv: RMSE in support (out-of-fold), out of support and on matched cases per model.
+
+    ``predictions`` hold, per model, out-of-fold values on in-support rows and
+    final-model values elsewhere, so no row is scored by a model trained on it.
+    """
+    from .metrics import rmse
+
+    inside = np.asarray(in_support, bool)
+    measured = np.asarray(measured, float)
+    rows = []
+    for model, pred in predictions.items():
+        row = {"model": model, "rmse_in_support_cv": rmse(measured[inside], pred[inside]),
+               "rmse_out_of_support": rmse(measured[~inside], pred[~inside]),
+               "rmse_matched": rmse(matched_measured, matched_predictions[model])}
+        if truth is not None:
+            truth = np.asarray(truth, float)
+            row["rmse_truth_in_support_cv"] = rmse(truth[inside], pred[inside])
+            row["rmse_truth_out_of_support"] = rmse(truth[~inside], pred[~inside])
+            row["out_of_support_over_noise"] = row["rmse_out_of_support"] / noise if noise else float("nan")
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    table["n_in_support"] = int(inside.sum())
+    table["n_out_of_support"] = int((~inside).sum())
+    table["n_matched"] = len(matched_measured)
+    table["evaluated_on"] = ("measured production draw-in: in support out-of-fold (K-fold CV), out of support "
+                             "with models fitted on all in-support rows (never on these rows); matched cases "
+                             "(never used for fitting)" + ("; truth = the demo's noise-free plant" if truth is not None else ""))
+    return table

@@ -1,0 +1,103 @@
+# Beyond the paper: what the simulation gets wrong, the physics-side extension and its gain.
+
+N_CAUSE_FIGURES = config["diagnosis"]["n_figures"]
+
+
+rule diagnose:
+    input:
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+        surrogate=rules.surrogate_fit.output.model,
+    output:
+        table=report(f"{TABLES}/discrepancy_causes.csv", caption="../report/discrepancy_causes.rst",
+                     category="6. Diagnosis"),
+        summary="results/diagnosis/diagnosis.json",
+        figures=report(
+            expand(f"{FIGURES}/cause_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
+            caption="../report/cause_figure.rst",
+            category="6. Diagnosis",
+        ),
+    params:
+        inputs=INPUTS,
+        target=TARGET,
+        folds=FOLDS,
+        seed=SEED,
+        settings={k: v for k, v in config["diagnosis"].items() if k != "n_figures"},
+    threads: 2
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("diagnose"),
+    benchmark:
+        benchmark_of("diagnose")
+    script:
+        "../../scripts/diagnose.py"
+
+
+rule model_extension:
+    input:
+        unpack(demo_truth_inputs),
+        production=rules.validate_inputs.output.production,
+        residuals=rules.residuals.output.residuals,
+        matched=rules.validate_inputs.output.matched,
+        matched_cases=rules.matched_check.output.cases,
+        hybrid=rules.predict_production.output.predictions,
+        summary=rules.diagnose.output.summary,
+        best=rules.tune_residual.output.best,
+    output:
+        table=report(f"{TABLES}/model_extension.csv", caption="../report/model_extension.rst",
+                     category="6. Diagnosis"),
+        extension=f"{MODELS}/extension.json",
+        remainder=f"{MODELS}/residual_xgb_extended.json",
+        predictions="results/predictions/extension.csv",
+    params:
+        inputs=INPUTS,
+        folds=FOLDS,
+        seed=SEED,
+        matched_measured=config["columns"]["matched_measured"],
+    threads: 2
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("model_extension"),
+    benchmark:
+        benchmark_of("model_extension")
+    script:
+        "../../scripts/model_extension.py"
+
+
+rule production_predictions:
+    input:
+        hybrid=rules.predict_production.output.predictions,
+        extension=rules.model_extension.output.predictions,
+    output:
+        predictions="results/predictions/production.csv",
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("production_predictions"),
+    benchmark:
+        benchmark_of("production_predictions")
+    script:
+        "../../scripts/production_predictions.py"
+
+
+rule diagnosis_report:
+    input:
+        unpack(demo_truth_inputs),
+        causes=rules.diagnose.output.table,
+        summary=rules.diagnose.output.summary,
+        gain=rules.model_extension.output.table,
+    output:
+        report=report("results/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
+    params:
+        target=TARGET,
+        unit=config["units"]["target"],
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("diagnosis_report"),
+    benchmark:
+        benchmark_of("diagnosis_report")
+    script:
+        "../../scripts/diagnosis_report.py"
