@@ -224,15 +224,18 @@ def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: fl
                block_p_value(y, oof, settings.n_blocks), float(np.ptp(fitted)), float(np.std(fitted)))
 
 
-def prefer_main_effect(best: Fit, pool: list[Fit], min_effect: float) -> Fit:
-    """An interaction a*b gives way to a or b alone when it predicts about the same (nested models)."""
-    if best.candidate.kind != "interaction":
-        return best
+def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) -> Fit:
+    """Among single-column candidates that predict what the best one predicts, up to ``min_effect``
+    (std of the difference), take the one with the fewest parameters.
+
+    Coil ids follow time and campaigns, and a product a*b contains a and b: such
+    many-parameter candidates also soak up the surrogate's own error, so they
+    can edge out the simple cause that carries the effect.
+    """
     fitted = best.form.predict(best.candidate.values)
-    mains = [fit for fit in pool if fit.candidate.kind != "interaction"
-             and set(fit.candidate.columns) <= set(best.candidate.columns)
-             and np.std(fit.form.predict(fit.candidate.values) - fitted) < min_effect]
-    return min(mains, key=lambda fit: (fit.score, fit.candidate.name)) if mains else best
+    simpler = [fit for fit in pool if fit.candidate.kind != "interaction" and fit.form.n_params < best.form.n_params
+               and acceptable(fit) and np.std(fit.form.predict(fit.candidate.values) - fitted) < min_effect]
+    return min(simpler, key=lambda fit: (fit.form.n_params, fit.score, fit.candidate.name)) if simpler else best
 
 
 def fit_all(candidates: list[Candidate], y, splits, settings: Settings, min_effect: float) -> dict[str, Fit]:
@@ -295,7 +298,8 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}]
         if not pool:
             break
-        best = prefer_main_effect(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect)
+        best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect,
+                              lambda fit: is_significant(fit, n_tests, settings, min_effect))
         if not is_significant(best, n_tests, settings, min_effect):
             break
         selected.append(best)

@@ -1,0 +1,39 @@
+"""Hidden effects in generated plant data: the diagnosis must name them, and the extension must pay off."""
+import pytest
+
+from hybridtwin import experiment
+
+from .conftest import SCENARIO_SEED
+
+# kinds whose effect the black-box hybrid cannot carry out of the support (new temperatures,
+# strokes, stronger coils, new setting combinations): the extension must be well below it there
+EXTRAPOLATING = {"temperature", "stroke_drift", "rp02_slope", "interaction"}
+
+
+@pytest.fixture(scope="module", params=experiment.KINDS)
+def outcome(request):
+    return experiment.run_scenario(request.param, SCENARIO_SEED + experiment.KINDS.index(request.param), n_jobs=2)
+
+
+def test_names_the_hidden_cause_and_its_form(outcome):
+    where = f"{outcome.kind}: {outcome.effect} (seed {SCENARIO_SEED})"
+    if outcome.expected.cause is None:
+        assert outcome.n_significant == 0, f"{where}: invented {outcome.top_cause}/{outcome.top_form}"
+        return
+    assert outcome.top_significant, f"{where}: top cause {outcome.top_cause} not significant"
+    assert experiment.named(outcome.expected, outcome.top_cause), f"{where}: named {outcome.top_cause}"
+    assert outcome.top_form in outcome.expected.forms, f"{where}: form {outcome.top_form}"
+
+
+def test_extension_gains_out_of_support(outcome):
+    where = (f"{outcome.kind}: {outcome.effect} (seed {SCENARIO_SEED}): hybrid {outcome.rmse_oos_hybrid:.2f}, "
+             f"extended {outcome.rmse_oos_extended:.2f}, extended hybrid {outcome.rmse_oos_extended_hybrid:.2f} mm")
+    if outcome.kind in EXTRAPOLATING:
+        assert outcome.rmse_oos_extended < 0.8 * outcome.rmse_oos_hybrid, where
+        assert outcome.rmse_oos_extended < 1.6 * outcome.noise, where
+    elif outcome.kind == "coil_offset":
+        # an offset is known only for coils seen inside the support
+        assert outcome.rmse_oos_known_levels_extended < 1.05 * outcome.rmse_oos_known_levels_hybrid, where
+    else:
+        # a step at settings inside the support, or no effect: trees carry it too; the extension must not lose
+        assert outcome.rmse_oos_extended_hybrid < 1.05 * outcome.rmse_oos_hybrid, where
