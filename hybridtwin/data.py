@@ -1,14 +1,23 @@
 """Loading and validating the user's three CSV files, in one place.
 
 Every check stops with an :class:`InputError` whose message names the file, the
-column and, where it applies, the row (as the line number an editor shows, the
-header being line 1) and the offending value. Input files are only read.
+column and, where it applies, the row and the offending value. Data rows are
+counted from 1 below the header and shown with the line an editor shows:
+"row N (line N+1)". A message also says what the fault looks like where it can
+(a decimal comma, a semicolon-separated export, a unit in a cell, a column name
+that differs only in case). Usable oddities (blank lines, production far outside
+the DoE ranges, matched cases outside the support) give a :class:`DataWarning`
+and the run goes on. Input files are only read.
+
+``tests/test_bad_inputs.py`` holds a corpus of broken inputs and the messages they give.
 """
 from __future__ import annotations
 
 import csv
+import difflib
 import io
 import math
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,8 +45,20 @@ class Columns:
 
     @classmethod
     def from_config(cls, columns: dict) -> "Columns":
-        inputs = tuple(columns.get("inputs") or ())
-        names = cls(inputs, columns.get("target", ""), columns.get("matched_simulated", ""),
+        if not isinstance(columns, dict):
+            raise InputError(f"config columns must be a mapping (inputs, target, matched_simulated, "
+                             f"matched_measured), got {columns!r}")
+        inputs = columns.get("inputs") or ()
+        if not isinstance(inputs, (list, tuple)):
+            raise InputError(f"config columns.inputs must be a list of column names, got {inputs!r}")
+        for key in ("target", "matched_simulated", "matched_measured"):
+            value = columns.get(key, "")
+            if not isinstance(value, str):
+                raise InputError(f"config columns.{key} must be one column name, got {value!r}")
+        not_names = [name for name in inputs if not isinstance(name, str) or not name.strip()]
+        if not_names:
+            raise InputError(f"config columns.inputs must hold column names, got {', '.join(map(repr, not_names))}")
+        names = cls(tuple(inputs), columns.get("target", ""), columns.get("matched_simulated", ""),
                     columns.get("matched_measured", ""))
         names.check()
         return names
@@ -55,6 +76,9 @@ class Columns:
             if value in self.inputs:
                 raise InputError(f"config columns.{key} {value!r} is also listed in columns.inputs: "
                                  "a target cannot be an input")
+        if self.matched_simulated == self.matched_measured:
+            raise InputError(f"config columns.matched_simulated and columns.matched_measured are both "
+                             f"{self.matched_simulated!r}: name the simulated and the measured column")
 
 
 @dataclass(frozen=True)
@@ -67,7 +91,18 @@ class CsvFormat:
     @classmethod
     def from_config(cls, config: dict | None) -> "CsvFormat":
         config = config or {}
-        return cls(config.get("sep", ","), config.get("decimal", "."))
+        fmt = cls(config.get("sep", ","), config.get("decimal", "."))
+        if fmt.sep not in SEPARATORS:
+            raise InputError(f"config csv.sep {fmt.sep!r} is not one of {', '.join(map(repr, SEPARATORS))}")
+        if fmt.decimal not in (".", ","):
+            raise InputError(f"config csv.decimal {fmt.decimal!r} is not one of '.', ','")
+        return fmt
+
+
+# separators the config may name, and how a message calls an export written with them
+SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
+# cell texts that mean "no value" (compared in lower case); an empty cell means the same
+MISSING_TEXTS = frozenset({"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "none", "missing", "<na>"})
 
 
 def _line(row_index: int) -> str:
@@ -75,45 +110,156 @@ def _line(row_index: int) -> str:
     return f"row {row_index + 1} (line {row_index + 2})"
 
 
+def _other_csvs(path: Path) -> str:
+    """For a missing file: the CSV files that are in its folder, and the closest name."""
+    folder = path.parent
+    if not folder.is_dir():
+        return f"; the folder {str(folder)!r} does not exist either"
+    names = sorted(p.name for p in folder.iterdir() if p.suffix.lower() == ".csv" and p.is_file())
+    if not names:
+        return f"; there is no CSV file in {str(folder)!r}"
+    shown = ", ".join(map(repr, names[:20])) + (f", … ({len(names)} in all)" if len(names) > 20 else "")
+    close = difflib.get_close_matches(path.name, names, n=1, cutoff=0.6)
+    return f"; CSV files in {str(folder)!r}: {shown}" + (f" — did you mean {close[0]!r}?" if close else "")
+
+
+def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:
+    """The file's text; stop on workbooks, binary content and text that is not UTF-8."""
+    if raw.startswith(b"PK\x03\x04"):
+        raise InputError(f"{where} is an Excel workbook (.xlsx) or another zip archive, not a CSV text file: "
+                         "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'")
+    if raw.startswith(b"\xd0\xcf\x11\xe0"):
+        raise InputError(f"{where} is an old Excel workbook (.xls), not a CSV text file: "
+                         "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'")
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise InputError(f"{where} is UTF-16 text (Excel's 'Unicode Text'), not UTF-8: save it as 'CSV UTF-8'")
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        line = raw.count(b"\n", 0, nul) + 1
+        raise InputError(f"{where} is binary, not a CSV text file: NUL byte at offset {nul} (line {line}); "
+                         "export the table as 'CSV UTF-8'")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        at = error.start
+        line = raw.count(b"\n", 0, at) + 1
+        place = "the header (line 1)" if line == 1 else _line(line - 2)
+        char = bytes([raw[at]]).decode("cp1252", errors="replace")
+        raise InputError(f"{where} is not UTF-8 text: byte 0x{raw[at]:02x} ({char!r} in Latin-1/Windows-1252) in "
+                         f"{place}{_column_at(raw, at, fmt)}, offset {at}; save the file as 'CSV UTF-8', or "
+                         "convert it from Latin-1/Windows-1252 (e.g. iconv -f WINDOWS-1252 -t UTF-8)") from None
+
+
+def _column_at(raw: bytes, at: int, fmt: CsvFormat) -> str:
+    """', column NAME' for the byte offset ``at`` (read as Latin-1, which never fails), or ''."""
+    try:
+        header = next(csv.reader([raw[:raw.find(b"\n")].decode("latin-1")], delimiter=fmt.sep))
+        start = raw.rfind(b"\n", 0, at) + 1
+        if start == 0:
+            return ""
+        fields = next(csv.reader([raw[start:at + 1].decode("latin-1")], delimiter=fmt.sep))
+    except (csv.Error, StopIteration):
+        return ""
+    index = len(fields) - 1
+    return f", column {header[index].strip()!r}" if 0 <= index < len(header) else ""
+
+
+def _separator_hint(header: list[str], fmt: CsvFormat) -> str:
+    """When the header reads as if written with another separator than csv.sep: name it."""
+    for sep, name in SEPARATORS.items():
+        if sep == fmt.sep:
+            continue
+        if (len(header) == 1 and sep in header[0]) or (sep in ";\t|" and any(sep in str(h) for h in header)):
+            shown = '"\\t"' if sep == "\t" else f"'{sep}'"
+            decimal = " (and csv.decimal: ',' if its numbers are written like 0,71)" if sep == ";" else ""
+            return f" — this looks like a {name}-separated export: set csv.sep: {shown} in the config{decimal}"
+    return ""
+
+
+def _ragged_hint(header: list[str], fields: list[str], fmt: CsvFormat) -> str:
+    hint = _separator_hint(header, fmt)
+    if hint:
+        return hint
+    cells = [field.strip() for field in fields]
+    if (fmt.sep == "," and sum(bool(re.fullmatch(r"[-+]?\d+", cell)) for cell in cells) >= 2
+            and not any(re.fullmatch(r"[-+]?\d*\.\d+([eE][-+]?\d+)?", cell) for cell in cells)):
+        return (" — this looks like a decimal comma in a comma-separated file: each number splits in two at its "
+                "comma. Export with csv.sep: ';' and csv.decimal: ',' (the European Excel CSV), or quote the values")
+    return (f" — a stray {SEPARATORS.get(fmt.sep, repr(fmt.sep))} at the end of the line, or a text value "
+            "holding the separator that is not quoted?")
+
+
 def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
-    """Read one CSV as text columns, after checking it is a readable, non-empty text table."""
+    """Read one CSV as text columns, after checking it is a readable, non-empty, rectangular text table.
+
+    Blank lines (or lines of bare separators, as Excel writes empty rows) are skipped, with
+    a :class:`DataWarning` when they lie between data rows. The frame's index is each row's
+    place in the file (0 for line 2), so that messages name the line an editor shows even
+    below a skipped blank line.
+    """
     path = Path(path)
     where = f"{role} file {str(path)!r}"
     if not path.exists():
-        near = sorted(p.name for p in path.parent.glob("*.csv")) if path.parent.is_dir() else []
-        hint = f"; CSV files in {str(path.parent)!r}: {', '.join(near)}" if near else ""
-        raise InputError(f"{where} does not exist (config data.{role}){hint}")
+        raise InputError(f"{where} does not exist (config data.{role}){_other_csvs(path)}")
     if path.is_dir():
         raise InputError(f"{where} is a folder, not a CSV file (config data.{role})")
-    raw = path.read_bytes()
-    if b"\x00" in raw[:8192]:
-        raise InputError(f"{where} is binary, not a CSV text file (an .xlsx workbook? export it as CSV UTF-8)")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as error:
-        raise InputError(f"{where} is not UTF-8 text: byte 0x{raw[error.start]:02x} at offset {error.start} "
-                         "(save it as 'CSV UTF-8', or convert it from Latin-1/Windows-1252)") from None
+    text = _decode(path.read_bytes(), where, fmt)
     if not text.strip():
         raise InputError(f"{where} is empty: no header and no rows")
-    header = next(csv.reader(io.StringIO(text), delimiter=fmt.sep))
-    header = [name.strip() for name in header]
+    reader = csv.reader(io.StringIO(text, newline=""), delimiter=fmt.sep, skipinitialspace=True)
+    try:
+        rows = list(reader)
+    except csv.Error as error:
+        raise InputError(f"{where}, line {reader.line_num}: not readable as CSV ({error})") from None
+    while rows and not any(field.strip() for field in rows[-1]):
+        rows.pop()
+    if not any(field.strip() for field in rows[0]):
+        raise InputError(f"{where}: line 1 is blank; the header (the column names) must be on line 1")
+    header = [name.strip() or f"Unnamed: {i}" for i, name in enumerate(rows[0])]
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
-        raise InputError(f"{where} has duplicated column names: {', '.join(map(repr, duplicated))}")
-    frame = pd.read_csv(io.StringIO(text), sep=fmt.sep, dtype=str, keep_default_na=False,
-                        skipinitialspace=True)
-    frame.columns = header
-    if frame.empty:
+        raise InputError(f"{where} has duplicated column names: {', '.join(map(repr, duplicated))}; "
+                         "every column needs its own name")
+    body = rows[1:]
+    if not body:
         raise InputError(f"{where} has a header and no rows")
-    return frame
+    width = len(header)
+    kept, blank = [], []
+    for index, fields in enumerate(body):
+        if not any(field.strip() for field in fields):
+            blank.append(index)
+            continue
+        if len(fields) > width:
+            if any(field.strip() for field in fields[width:]):
+                raise InputError(f"{where}, {_line(index)}: {len(fields)} fields, but the header has {width} "
+                                 f"column{'s' if width > 1 else ''}{_ragged_hint(header, fields, fmt)}")
+            del fields[width:]
+        elif len(fields) < width:
+            fields.extend([""] * (width - len(fields)))
+        kept.append(index)
+    if blank:
+        lines = ", ".join(str(index + 2) for index in blank[:10]) + (", …" if len(blank) > 10 else "")
+        warn(f"{where}: {len(blank)} blank line(s) skipped (line {lines})")
+    # the index keeps each row's place in the file, so that messages name the right line
+    return pd.DataFrame([body[index] for index in kept], columns=header, index=kept, dtype=str)
 
 
 def _looks_like(value: str, header: list[str], fmt: CsvFormat) -> str:
-    """Name the export dialect a bad value suggests."""
-    if ";" in value or any(";" in name for name in header):
-        return " — this looks like a semicolon-separated export: set csv.sep: ';' (and csv.decimal: ',') in the config"
-    if fmt.decimal == "." and "," in value and _is_number(value.replace(",", ".")):
+    """Name the export dialect (or the slip) a value that is not a number suggests."""
+    hint = _separator_hint(header, fmt)
+    if hint:
+        return hint
+    value = value.strip()
+    if fmt.decimal == "." and value.count(",") == 1 and "." not in value and _is_number(value.replace(",", ".")):
         return " — this looks like a decimal comma (European Excel export): set csv.decimal: ',' in the config"
+    if fmt.decimal == "." and "," in value and "." in value and _is_number(value.replace(",", "")):
+        return " — a thousands separator? export the numbers without digit grouping"
+    if fmt.decimal == "," and "." in value and _is_number(value.replace(".", "").replace(",", ".")):
+        return " — a thousands separator? export the numbers without digit grouping"
+    if value.startswith("#"):
+        return " — an Excel error value: fix the formula in the workbook and export again"
+    if re.fullmatch(r"[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*[^\d\s.,].*", value):
+        return " — a unit in the cell? keep only the number in the cell (the unit belongs in the column name)"
     return ""
 
 
@@ -127,73 +273,127 @@ def _is_number(value: str) -> bool:
 
 def numeric_column(frame: pd.DataFrame, column: str, where: str, fmt: CsvFormat,
                    allow_missing: bool = False) -> pd.Series:
-    """Column as float; stop at the first value that is not a finite number."""
-    text = frame[column].astype(str).str.strip()
-    if fmt.decimal != ".":
-        text = text.str.replace(fmt.decimal, ".", regex=False)
-    values = pd.to_numeric(text, errors="coerce")
-    bad = values.isna() & (text != "") if allow_missing else values.isna()
-    if bad.any():
-        row = int(np.flatnonzero(bad.to_numpy())[0])
-        value = frame[column].iloc[row]
-        shown = "an empty cell" if str(value).strip() == "" else f"value {value!r}"
-        hint = _looks_like(str(value), list(frame.columns), fmt)
-        raise InputError(f"{where}, column {column!r}, {_line(row)}: {shown} is not a number "
-                         f"({int(bad.sum())} such row(s) in this column){hint}")
-    infinite = np.isinf(values.to_numpy(float))
-    if infinite.any():
-        row = int(np.flatnonzero(infinite)[0])
-        raise InputError(f"{where}, column {column!r}, {_line(row)}: value {frame[column].iloc[row]!r} "
-                         "is infinite (a sensor or export fault?)")
-    return values.astype(float)
+    """Column as float; stop at the first cell that is missing, not a number, or infinite.
+
+    Missing means an empty cell or a text such as 'NaN', 'nan', 'NA', 'null' (with
+    ``allow_missing`` those become NaN instead).
+    """
+    series = frame[column]
+    original = series.astype(str).where(series.notna(), "")
+    text = original.str.strip()
+    parsed = text.str.replace(fmt.decimal, ".", regex=False) if fmt.decimal != "." else text
+    values = pd.to_numeric(parsed, errors="coerce").astype(float)
+    missing = (text == "") | text.str.lower().isin(MISSING_TEXTS)
+    not_number = values.isna() & ~missing
+    infinite = pd.Series(np.isinf(values.to_numpy()), index=values.index)
+    if allow_missing:
+        values[missing] = np.nan
+        missing[:] = False
+    bad = (missing | not_number | infinite).to_numpy()
+    if not bad.any():
+        return values
+    row = int(np.flatnonzero(bad)[0])
+    value = text.iloc[row]
+    counts = [f"{int(mask.sum())} {label} cell(s)" for mask, label in
+              ((missing, "missing"), (not_number, "non-numeric"), (infinite, "infinite")) if mask.any()]
+    label = frame.index[row]  # read_csv's frames are indexed by the row's place in the file
+    place = f"{where}, column {column!r}, {_line(int(label) if isinstance(label, (int, np.integer)) else row)}"
+    tally = f" (this column has {', '.join(counts)})"
+    if missing.iloc[row]:
+        what = "an empty cell is missing (NaN)" if value == "" else f"value {value!r} is missing (NaN)"
+        hint = " — every configured column needs a number in every row: fill the gap or drop the row"
+    elif infinite.iloc[row]:
+        what = f"value {value!r} is infinite"
+        hint = " — a sensor or export fault? fix or drop the row"
+    else:
+        what = f"value {value!r} is not a number"
+        hint = _looks_like(value, [str(name) for name in frame.columns], fmt)
+    raise InputError(f"{place}: {what}{tally}{hint}")
 
 
-def require_columns(frame: pd.DataFrame, columns, where: str, config_key: str) -> None:
+def _squash(name: str) -> str:
+    return re.sub(r"[^0-9a-z]", "", str(name).lower())
+
+
+def require_columns(frame: pd.DataFrame, columns, where: str, config_key: str | dict,
+                    fmt: CsvFormat = CsvFormat()) -> None:
+    """Stop when a configured column is absent; name near misses and a wrong separator.
+
+    ``config_key`` is the config entry naming the columns, or a mapping column -> entry.
+    """
     missing = [name for name in columns if name not in frame.columns]
     if not missing:
         return
-    known = {name.lower().replace(" ", "").replace("_", ""): name for name in frame.columns}
-    hints = []
+    present = [str(name) for name in frame.columns]
+    squashed = {_squash(name): name for name in present}
+    groups: dict[str, list[str]] = {}
     for name in missing:
-        close = known.get(name.lower().replace(" ", "").replace("_", ""))
-        hints.append(f"{name!r}" + (f" (the file has {close!r})" if close else ""))
-    raise InputError(f"{where} has no column {', '.join(hints)} named in config {config_key}; "
-                     f"its columns are: {', '.join(map(repr, frame.columns))}")
+        key = config_key.get(name, "columns") if isinstance(config_key, dict) else config_key
+        close = squashed.get(_squash(name))
+        if close:
+            near = f" (the file has {close!r})"
+        else:
+            match = difflib.get_close_matches(name, present, n=1, cutoff=0.75)
+            near = f" (did you mean {match[0]!r}?)" if match else ""
+        groups.setdefault(key, []).append(f"{name!r}{near}")
+    absent = " and no column ".join(f"{', '.join(names)} named in config {key}" for key, names in groups.items())
+    shown = ", ".join(map(repr, present[:30])) + (f", … ({len(present)} in all)" if len(present) > 30 else "")
+    raise InputError(f"{where} has no column {absent}; its columns are: {shown}{_separator_hint(present, fmt)}")
 
 
-def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: str) -> pd.DataFrame:
+def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: str | dict) -> pd.DataFrame:
     """Read a CSV and convert the configured numeric columns; other columns stay as text."""
     frame = read_csv(path, role, fmt)
     where = f"{role} file {str(path)!r}"
-    require_columns(frame, numeric, where, config_key)
+    require_columns(frame, numeric, where, config_key, fmt)
     for column in numeric:
         frame[column] = numeric_column(frame, column, where, fmt)
     return frame
 
 
-def load_doe(path, columns: Columns, fmt: CsvFormat = CsvFormat(), min_rows: int = 2) -> pd.DataFrame:
-    doe = load_table(path, "doe", [*columns.inputs, columns.target], fmt, "columns.inputs/target")
+def _config_keys(columns: Columns, *keys: str) -> dict[str, str]:
+    """Configured column -> the config entry that names it."""
+    names = {name: "columns.inputs" for name in columns.inputs}
+    names.update({getattr(columns, key): f"columns.{key}" for key in keys})
+    return names
+
+
+def load_doe(path, columns: Columns, fmt: CsvFormat = CsvFormat(), min_rows: int = 2,
+             folds: int | None = None, k: int | None = None) -> pd.DataFrame:
+    doe = load_table(path, "doe", [*columns.inputs, columns.target], fmt, _config_keys(columns, "target"))
     where = f"doe file {str(path)!r}"
-    if len(doe) < min_rows:
-        raise InputError(f"{where} has {len(doe)} rows, fewer than the {min_rows} needed "
-                         "(cv.folds folds and the kNN gate's k neighbours)")
+    needs = []
+    if folds is not None and len(doe) < folds:
+        needs.append(f"cv.folds: {folds} needs at least {folds}")
+    if k is not None and len(doe) < k + 1:
+        needs.append(f"gate.k: {k} needs at least {k + 1} (k neighbours besides each DoE point itself)")
+    if not needs and len(doe) < min_rows:
+        needs.append(f"at least {min_rows} are needed")
+    if needs:
+        raise InputError(f"{where} has {len(doe)} data rows, too few: {'; '.join(needs)}. "
+                         "Add DoE runs, or lower cv.folds / gate.k in the config")
     spread = doe[list(columns.inputs)].std(ddof=1)
     constant = [name for name in columns.inputs if not spread[name] > 0]
     if constant:
-        raise InputError(f"{where}: input column(s) {', '.join(map(repr, constant))} are constant over the DoE "
-                         "(standard deviation 0), so they cannot be standardized; drop them from columns.inputs")
+        values = ", ".join(f"{name!r} (every row is {doe[name].iloc[0]:g})" for name in constant)
+        one = len(constant) == 1
+        raise InputError(f"{where}: input column{'' if one else 's'} {values} {'is' if one else 'are'} constant "
+                         f"over the DoE (standard deviation 0), so {'it' if one else 'they'} cannot be standardized; "
+                         f"drop {'it' if one else 'them'} from columns.inputs, or use a DoE that varies "
+                         f"{'it' if one else 'them'}")
     return doe
 
 
 def load_production(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     production = load_table(path, "production", [*columns.inputs, columns.target], fmt,
-                            "columns.inputs/target")
+                            _config_keys(columns, "target"))
     return _numeric_extras(production, [*columns.inputs, columns.target], fmt)
 
 
 def load_matched(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     numeric = [*columns.inputs, columns.matched_simulated, columns.matched_measured]
-    matched = load_table(path, "matched", numeric, fmt, "columns.inputs/matched_simulated/matched_measured")
+    matched = load_table(path, "matched", numeric, fmt,
+                         _config_keys(columns, "matched_simulated", "matched_measured"))
     return _numeric_extras(matched, numeric, fmt)
 
 
@@ -212,7 +412,8 @@ def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.
 
 
 def range_report(reference: pd.DataFrame, frame: pd.DataFrame, inputs) -> pd.DataFrame:
-    """Per input: the reference (DoE) range, the frame's range, and how far the frame lies outside."""
+    """Per input: the reference (DoE) range, the frame's range, how far the frame lies outside, and
+    ``scale``, the ratio of the frame's typical magnitude to the DoE's (about 1000 for mm logged as µm)."""
     rows = []
     for name in inputs:
         low, high = float(reference[name].min()), float(reference[name].max())
@@ -221,11 +422,24 @@ def range_report(reference: pd.DataFrame, frame: pd.DataFrame, inputs) -> pd.Dat
         below = max(0.0, low - float(values.min()))
         above = max(0.0, float(values.max()) - high)
         outside = float(np.mean((values < low) | (values > high)))
+        typical = float(np.median(np.abs(reference[name].to_numpy(float))))
         rows.append({"column": name, "doe_min": low, "doe_max": high,
                      "min": float(values.min()), "max": float(values.max()),
                      "share_outside": outside,
-                     "beyond_range_in_spans": max(below, above) / span if span > 0 else math.inf})
+                     "beyond_range_in_spans": max(below, above) / span if span > 0 else math.inf,
+                     "scale": float(np.median(np.abs(values))) / typical if typical > 0 else math.nan})
     return pd.DataFrame(rows)
+
+
+def _unit_hint(scale: float) -> str:
+    """' — about 1000 times the DoE values: a unit mix-up …?' when the magnitudes differ by more than 5x."""
+    if not (np.isfinite(scale) and scale > 0) or 0.2 <= scale <= 5:
+        return ""
+    factor = scale if scale > 1 else 1 / scale
+    exponent = round(math.log10(factor))
+    shown = str(10 ** exponent) if abs(math.log10(factor) - exponent) < 0.1 else f"{factor:.3g}"
+    times = f"about {shown} times the DoE values" if scale > 1 else f"about 1/{shown} of the DoE values"
+    return f" — {times}: a unit mix-up (mm vs µm or m, kN vs N, MPa vs Pa, °C vs K)?"
 
 
 def describe_out_of_range(report: pd.DataFrame, limit: float = 0.0) -> str:
@@ -233,10 +447,10 @@ def describe_out_of_range(report: pd.DataFrame, limit: float = 0.0) -> str:
     lines = []
     for row in report.itertuples():
         if row.beyond_range_in_spans > limit:
-            ratio = max(abs(row.min), abs(row.max)) / max(abs(row.doe_min), abs(row.doe_max), 1e-12)
-            units = " — a unit mix-up?" if ratio > 5 or ratio < 0.2 else ""
-            lines.append(f"  {row.column}: data {row.min:.4g}..{row.max:.4g}, DoE {row.doe_min:.4g}..{row.doe_max:.4g}, "
-                         f"{row.share_outside:.0%} of rows outside, up to {row.beyond_range_in_spans:.2f} DoE spans beyond{units}")
+            scale = getattr(row, "scale", math.nan)
+            lines.append(f"  {row.column}: data {row.min:.4g}..{row.max:.4g}, "
+                         f"DoE {row.doe_min:.4g}..{row.doe_max:.4g}, {row.share_outside:.0%} of rows outside, "
+                         f"up to {row.beyond_range_in_spans:.2f} DoE spans beyond{_unit_hint(scale)}")
     return "\n".join(lines)
 
 
@@ -244,18 +458,36 @@ def warn(message: str) -> None:
     warnings.warn(message, DataWarning, stacklevel=2)
 
 
+def _setting(config: dict, section: str, key: str, default: int, minimum: int) -> int:
+    """A whole-number setting of the config, checked (the workflow's schema checks it too)."""
+    part = config.get(section) or {}
+    value = part.get(key, default) if isinstance(part, dict) else part
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InputError(f"config {section}.{key} is {value!r}: it must be a whole number (at least {minimum})")
+    if value < minimum:
+        raise InputError(f"config {section}.{key} is {value}: it must be at least {minimum}")
+    return int(value)
+
+
 def load_datasets(config: dict) -> dict[str, pd.DataFrame]:
     """Read and check the three configured files; warn on usable oddities."""
-    columns = Columns.from_config(config["columns"])
+    columns = Columns.from_config(config.get("columns"))
     fmt = CsvFormat.from_config(config.get("csv"))
-    folds = int(config.get("cv", {}).get("folds", 5))
-    k = int(config.get("gate", {}).get("k", 5))
-    doe = load_doe(config["data"]["doe"], columns, fmt, min_rows=max(folds, k + 1))
-    production = load_production(config["data"]["production"], columns, fmt)
-    matched = load_matched(config["data"]["matched"], columns, fmt)
+    folds = _setting(config, "cv", "folds", 5, minimum=2)
+    k = _setting(config, "gate", "k", 5, minimum=1)
+    paths = config.get("data") or {}
+    for role in ("doe", "production", "matched"):
+        if not isinstance(paths.get(role), (str, Path)) or not str(paths.get(role)).strip():
+            raise InputError(f"config data.{role} is not set: name the {role} CSV file "
+                             f"(got {paths.get(role)!r})")
+    doe = load_doe(paths["doe"], columns, fmt, folds=folds, k=k)
+    production = load_production(paths["production"], columns, fmt)
+    matched = load_matched(paths["matched"], columns, fmt)
     far = describe_out_of_range(range_report(doe, production, columns.inputs), limit=0.5)
     if far:
-        warn(f"production file {config['data']['production']!r}: columns lie far outside the DoE ranges "
+        warn(f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
              f"(more than half a DoE span):\n{far}")
     return {"doe": doe, "production": production, "matched": matched}
 
@@ -268,16 +500,18 @@ def read_checked(path) -> pd.DataFrame:
 def check_support(production_in: np.ndarray, matched_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame,
                   matched: pd.DataFrame, inputs, paths: dict, threshold: float) -> None:
     """Stop when no production row is in support; warn for matched cases outside it."""
+    production_in, matched_in = np.asarray(production_in, bool), np.asarray(matched_in, bool)
     if not production_in.any():
         report = describe_out_of_range(range_report(doe, production, inputs))
         raise InputError(
-            f"production file {paths['production']!r}: no row lies inside the DoE support "
+            f"production file {str(paths['production'])!r}: no row lies inside the DoE support "
             f"(kNN distance threshold {threshold:.3g} in DoE-standardized units), so no residual can be learned."
             + (f" Columns outside the DoE ranges:\n{report}" if report else
                " Every column is inside the DoE ranges, but the combinations are far from every DoE point.")
-            + "\nCheck units and column mapping, or enrich the DoE towards the production window.")
+            + "\nCheck the units and the column mapping (columns.inputs), or enrich the DoE towards the "
+              "production window.")
     if not matched_in.all():
-        outside = matched.index[~matched_in].tolist()
-        warn(f"matched file {paths['matched']!r}: {len(outside)} of {len(matched)} matched case(s) lie outside the "
-             f"DoE support (rows {', '.join(str(i + 1) for i in outside)}); the gated hybrid reverts to the "
-             "surrogate there")
+        outside = np.flatnonzero(~matched_in)
+        warn(f"matched file {str(paths['matched'])!r}: {len(outside)} of {len(matched_in)} matched case(s) lie "
+             f"outside the DoE support ({', '.join(_line(int(i)) for i in outside)}); the gated hybrid reverts to "
+             "the surrogate there")

@@ -93,6 +93,7 @@ class DemoPlant:
     fe_scatter_mm: float = 1.3
     noise_mm: float = 1.4
     offset_mm: float = 15.0
+    blanks_per_coil: int = 1800
     hidden_effect: HiddenEffect = field(default_factory=lambda: HiddenEffect(
         form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=48.0, width=3.5))
 
@@ -196,8 +197,8 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     ambient = (21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0)
                + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n))
 
-    # coils: ~1,800 blanks each; Rm and Rp0.2 move together from coil to coil
-    coil = np.cumsum(rng.random(n) < 1 / 1800.0)
+    # coils of ~blanks_per_coil blanks; Rm and Rp0.2 move together from coil to coil
+    coil = np.cumsum(rng.random(n) < 1 / plant.blanks_per_coil)
     n_coils = coil.max() + 1
     # two suppliers: B's coils are stronger, beyond the DoE's material ranges
     supplier_b = rng.random(n_coils) < 0.25

@@ -196,12 +196,7 @@ def block_p_value(y, oof, n_blocks: int) -> float:
 
 
 def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: float = 0.0) -> Fit:
-    """The candidate's form with the lowest penalized held-out error.
-
-    A simpler form wins over a more complex one whose fitted curve differs from
-    it by less than ``min_effect`` (standard deviation over the rows): such a
-    difference could be the surrogate's own error.
-    """
+    """The candidate's form with the lowest penalized held-out error (BIC-style penalty)."""
     n = len(y)
     null_mse = float(np.mean(y**2))
     tried = []
@@ -215,11 +210,7 @@ def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: fl
         cv_mse = float(np.mean((y - oof) ** 2))
         score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n)
         tried.append((score, full.n_params, name, oof, full, cv_mse, full.predict(candidate.values)))
-    best = min(tried, key=lambda t: (t[0], t[1]))
-    simpler = [t for t in tried if t[1] < best[1] and np.std(t[6] - best[6]) < min_effect]
-    if simpler:
-        best = min(simpler, key=lambda t: (t[1], t[0]))
-    score, _, name, oof, full, cv_mse, fitted = best
+    score, _, name, oof, full, cv_mse, fitted = min(tried, key=lambda t: (t[0], t[1]))
     return Fit(candidate, full, oof, cv_mse, null_mse, score - (n * np.log(max(null_mse, 1e-300))),
                block_p_value(y, oof, settings.n_blocks), float(np.ptp(fitted)), float(np.std(fitted)))
 

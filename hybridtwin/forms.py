@@ -55,15 +55,20 @@ class Linear(Form):
 
 
 class Quadratic(Form):
+    """A parabola inside the fitted range, held constant beyond it: curvature is not extrapolated."""
+
     name, n_params = "quadratic", 2
 
     def fit(self, x, y):
+        x = np.asarray(x, float)
         self.center = float(np.mean(x))
-        self.coefficients = np.polyfit(np.asarray(x, float) - self.center, y, 2)
+        self.low, self.high = float(x.min()), float(x.max())
+        self.coefficients = np.polyfit(x - self.center, y, 2)
         return self
 
     def predict(self, x):
-        return np.polyval(self.coefficients, np.asarray(x, float) - self.center)
+        clipped = np.clip(np.asarray(x, float), self.low, self.high)
+        return np.polyval(self.coefficients, clipped - self.center)
 
     def describe(self, column, unit="mm"):
         a, b, _ = self.coefficients
@@ -165,7 +170,8 @@ class Monotone(Form):
 
     @property
     def n_params(self):
-        return max(1, len(np.unique(np.round(self.knots_y, 12))) - 1)
+        # each jump has a place and a height, and the direction is chosen from the data
+        return 2 * max(1, len(np.unique(np.round(self.knots_y, 12))) - 1) + 1
 
     def predict(self, x):
         return np.interp(np.asarray(x, float), self.knots_x, self.knots_y)

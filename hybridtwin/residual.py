@@ -88,6 +88,9 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
     done = _complete(study)
     if done:
         log.info("resuming study %s with %d finished trial(s)", name, done)
+    if study.trials:
+        # a sampler restarted with the same seed would replay the first trials' parameters
+        study.sampler = optuna.samplers.TPESampler(seed=seed + len(study.trials))
 
     def objective(trial: optuna.Trial) -> float:
         per_fold, _ = cross_validate(make_model(suggest(trial, space), seed, n_jobs), X, y, n_folds, seed)

@@ -1,0 +1,474 @@
+"""Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
+import json
+import math
+
+import numpy as np
+import optuna
+import pandas as pd
+import pytest
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+
+from hybridtwin import hybrid, residual
+from hybridtwin.gate import DoEStandardizer, KNNSupportGate
+from hybridtwin.metrics import bias, mae, r2, rmse, scores
+from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin.validation import cross_validate, folds
+
+optuna.logging.set_verbosity(optuna.logging.WARNING)
+
+
+# --------------------------------------------------------------------------- 1. metrics
+
+def test_metrics_by_hand():
+    y, yhat = [1, 2, 3, 4], [1.5, 2, 2, 5]
+    # errors (reference - prediction) = [-0.5, 0, 1, -1]
+    assert rmse(y, yhat) == pytest.approx(0.75)  # sqrt((0.25 + 0 + 1 + 1) / 4)
+    assert mae(y, yhat) == pytest.approx(0.625)  # (0.5 + 0 + 1 + 1) / 4
+    assert bias(y, yhat) == pytest.approx(-0.125)  # (-0.5 + 0 + 1 - 1) / 4
+    assert r2(y, yhat) == pytest.approx(0.55)  # 1 - 2.25 / 5
+    assert scores(y, yhat) == pytest.approx({"r2": 0.55, "rmse": 0.75, "mae": 0.625, "bias": -0.125})
+
+
+def test_bias_sign_is_reference_minus_prediction():
+    # under-prediction gives a positive bias
+    assert bias([3, 5], [2, 4]) == pytest.approx(1.0)
+    assert bias([2, 4], [3, 5]) == pytest.approx(-1.0)
+
+
+def test_metric_edges():
+    assert math.isnan(r2([2, 2, 2], [1, 2, 3]))  # constant reference
+    assert r2([1, 2, 3], [1, 2, 3]) == 1.0
+    assert r2([1, 2, 3], [2, 2, 2]) == pytest.approx(0.0)  # predicting the mean
+    for metric in (rmse, mae, bias, r2):
+        assert math.isnan(metric([], []))
+
+
+# --------------------------------------------------------------------------- 2. DoE standardization
+
+DOE = np.array([[0.0, 1.0], [2.0, 3.0], [4.0, 8.0]])
+
+
+def test_standardizer_statistics_by_hand():
+    std = DoEStandardizer().fit(DOE)
+    # column 0: mean 2, deviations -2, 0, 2 -> var 8 / 2 = 4 -> std 2
+    # column 1: mean 4, deviations -3, -1, 4 -> var 26 / 2 = 13 -> std sqrt(13)
+    np.testing.assert_allclose(std.mean_, [2.0, 4.0])
+    np.testing.assert_allclose(std.scale_, [2.0, math.sqrt(13.0)])
+    np.testing.assert_allclose(std.transform(DOE), [[-1, -3 / math.sqrt(13)], [0, -1 / math.sqrt(13)],
+                                                    [1, 4 / math.sqrt(13)]])
+    # the DoE's own standardized columns have mean 0 and sample std 1
+    z = std.transform(DOE)
+    np.testing.assert_allclose(z.mean(axis=0), 0.0, atol=1e-12)
+    np.testing.assert_allclose(z.std(axis=0, ddof=1), 1.0)
+
+
+def test_standardizer_applies_doe_statistics_to_production():
+    std = DoEStandardizer().fit(DOE)
+    production = np.array([[10.0, 4.0], [-2.0, 4.0 + 2 * math.sqrt(13)], [2.0, 4.0]])
+    np.testing.assert_allclose(std.transform(production), [[4.0, 0.0], [-2.0, 2.0], [0.0, 0.0]])
+    # transforming production data does not change the statistics
+    np.testing.assert_allclose(std.mean_, [2.0, 4.0])
+    np.testing.assert_allclose(std.scale_, [2.0, math.sqrt(13.0)])
+    # fit_transform on production would give other statistics: not what transform does
+    assert not np.allclose(DoEStandardizer().fit(production).mean_, std.mean_)
+
+
+def test_standardizer_constant_column_raises():
+    with pytest.raises(ValueError, match="constant"):
+        DoEStandardizer().fit(np.array([[1.0, 5.0], [2.0, 5.0], [3.0, 5.0]]))
+
+
+def test_standardizer_round_trip():
+    std = DoEStandardizer().fit(DOE)
+    copy = DoEStandardizer.from_dict(json.loads(json.dumps(std.to_dict())))
+    np.testing.assert_array_equal(copy.mean_, std.mean_)
+    np.testing.assert_array_equal(copy.scale_, std.scale_)
+    production = np.array([[1.0, 2.0], [7.0, -3.0]])
+    np.testing.assert_array_equal(copy.transform(production), std.transform(production))
+
+
+# --------------------------------------------------------------------------- 3. kNN support gate
+
+# irregular 1-D DoE: mean 4, deviations -4, -3, -1, 2, 6 -> var 66 / 4 = 16.5
+LINE = np.array([0.0, 1.0, 3.0, 6.0, 10.0])[:, None]
+LINE_STD = math.sqrt(16.5)
+
+
+def test_gate_leave_one_out_distances_k1():
+    gate = KNNSupportGate(k=1, percentile=75).fit(LINE)
+    # nearest *other* DoE point: 0->1 (1), 1->0 (1), 3->1 (2), 6->3 (3), 10->6 (4)
+    np.testing.assert_allclose(gate.doe_distances_, np.array([1, 1, 2, 3, 4]) / LINE_STD)
+    # 75th percentile of [1, 1, 2, 3, 4] (linear): position 0.75 * 4 = 3 -> 3
+    assert gate.threshold_ == pytest.approx(3 / LINE_STD)
+
+
+def test_gate_leave_one_out_distances_k2():
+    gate = KNNSupportGate(k=2, percentile=50).fit(LINE)
+    # two nearest others: 0->(1,3), 1->(1,2), 3->(2,3), 6->(3,4), 10->(4,7)
+    np.testing.assert_allclose(gate.doe_distances_, np.array([2.0, 1.5, 2.5, 3.5, 5.5]) / LINE_STD)
+    assert gate.threshold_ == pytest.approx(2.5 / LINE_STD)  # median
+
+
+def test_gate_distance_and_predict_k1():
+    gate = KNNSupportGate(k=1, percentile=75).fit(LINE)
+    query = np.array([[3.0], [8.0], [4.5], [14.0], [20.0], [-5.0]])
+    # nearest DoE point: 3 (0), 6 or 10 (2), 3 or 6 (1.5), 10 (4), 10 (10), 0 (5)
+    expected = np.array([0.0, 2.0, 1.5, 4.0, 10.0, 5.0]) / LINE_STD
+    np.testing.assert_allclose(gate.distance(query), expected, atol=1e-12)
+    inside = gate.predict(query)
+    assert inside.dtype == bool
+    np.testing.assert_array_equal(inside, [True, True, True, False, False, False])
+
+
+def test_gate_uses_standardized_space_2d():
+    # 3 x 3 grid, columns on scales 1 and 10; each column has sample std sqrt(0.75) (times 10)
+    grid = np.array([[a, b] for a in (0.0, 1.0, 2.0) for b in (0.0, 10.0, 20.0)])
+    gate = KNNSupportGate(k=2, percentile=90).fit(grid)
+    h = 1 / math.sqrt(0.75)  # standardized grid spacing, the same in both directions
+    # every grid point has at least two neighbours at one spacing (in raw units a corner would give 1.5)
+    np.testing.assert_allclose(gate.doe_distances_, h)
+    assert gate.threshold_ == pytest.approx(h)
+    np.testing.assert_allclose(gate.standardizer_.mean_, [1.0, 10.0])
+    np.testing.assert_allclose(gate.standardizer_.scale_, [math.sqrt(0.75), 10 * math.sqrt(0.75)])
+    # (0.5, 0): half a spacing from (0, 0) and (1, 0)
+    assert gate.distance(np.array([[0.5, 0.0]]))[0] == pytest.approx(0.5 * h)
+    # (1, 5): half a spacing from (1, 0) and (1, 10)
+    assert gate.distance(np.array([[1.0, 5.0]]))[0] == pytest.approx(0.5 * h)
+    # a grid point: distance 0 to itself and h to its nearest neighbour -> h / 2
+    assert gate.distance(grid[4:5])[0] == pytest.approx(0.5 * h)
+    np.testing.assert_array_equal(gate.predict(np.array([[1.0, 10.0], [0.5, 5.0], [6.0, 0.0], [1.0, 80.0]])),
+                                  [True, True, False, False])
+
+
+def test_gate_uses_given_standardizer():
+    fixed = DoEStandardizer.from_dict({"mean": [0.0], "std": [1.0]})
+    gate = KNNSupportGate(k=1, percentile=75, standardizer=fixed).fit(LINE)
+    np.testing.assert_allclose(gate.doe_distances_, [1, 1, 2, 3, 4])
+    assert gate.threshold_ == pytest.approx(3.0)
+
+
+def test_gate_needs_more_rows_than_k():
+    with pytest.raises(ValueError):
+        KNNSupportGate(k=5).fit(LINE)
+
+
+def test_gate_round_trip():
+    rng = np.random.default_rng(0)
+    doe = rng.uniform(0, 1, (30, 3)) * [1, 100, 0.01]
+    gate = KNNSupportGate(k=3, percentile=90).fit(doe)
+    copy = KNNSupportGate.from_dict(json.loads(json.dumps(gate.to_dict())))
+    query = rng.uniform(-0.5, 1.5, (200, 3)) * [1, 100, 0.01]
+    np.testing.assert_array_equal(copy.predict(query), gate.predict(query))
+    np.testing.assert_allclose(copy.distance(query), gate.distance(query), rtol=0, atol=1e-12)
+    assert copy.threshold_ == gate.threshold_
+    assert 0 < gate.predict(query).sum() < len(query)
+
+
+def test_gate_sklearn_clone():
+    params = clone(KNNSupportGate(k=3, percentile=90)).get_params()
+    assert params == {"k": 3, "percentile": 90, "standardizer": None}
+
+
+# --------------------------------------------------------------------------- 4. CV without leakage
+
+def test_folds_partition_rows():
+    split = folds(23, 5, seed=7)
+    assert len(split) == 5
+    tests = np.concatenate([test for _, test in split])
+    np.testing.assert_array_equal(np.sort(tests), np.arange(23))  # every row tested exactly once
+    for train, test in split:
+        assert not set(train) & set(test)
+        np.testing.assert_array_equal(np.sort(np.concatenate([train, test])), np.arange(23))
+        assert len(test) in (4, 5)
+
+
+def test_folds_seeded():
+    a, b, c = folds(40, 4, seed=1), folds(40, 4, seed=1), folds(40, 4, seed=2)
+    for (train_a, test_a), (train_b, test_b) in zip(a, b):
+        np.testing.assert_array_equal(train_a, train_b)
+        np.testing.assert_array_equal(test_a, test_b)
+    assert any(not np.array_equal(test_a, test_c) for (_, test_a), (_, test_c) in zip(a, c))
+    with pytest.raises(ValueError):
+        folds(3, 5, seed=0)
+
+
+FITTED = []  # every Recorder fitted in cross_validate registers here (clones do not share attributes)
+
+
+class Recorder(RegressorMixin, BaseEstimator):
+    """Remembers the row ids (X[:, 0]) it was fitted on and the ones it predicted; predicts the mean of its y."""
+
+    def __init__(self, tag: str = "r"):
+        self.tag = tag
+
+    def fit(self, X, y):
+        self.seen_ = set(np.asarray(X)[:, 0].astype(int).tolist())
+        self.mean_ = float(np.mean(y))
+        self.predicted_ = set()
+        FITTED.append(self)
+        return self
+
+    def predict(self, X):
+        self.predicted_ |= set(np.asarray(X)[:, 0].astype(int).tolist())
+        return np.full(len(X), self.mean_)
+
+
+def test_cross_validate_never_trains_on_test_rows():
+    FITTED.clear()
+    n = 17
+    X = np.column_stack([np.arange(n), np.linspace(0, 1, n)])
+    y = np.arange(n, dtype=float) ** 2
+    per_fold, oof = cross_validate(Recorder(), X, y, n_folds=4, seed=3)
+    assert len(FITTED) == 4
+    assert per_fold["n_train"].tolist() == [len(m.seen_) for m in FITTED]
+    assert per_fold["n_test"].sum() == n
+    for model, (train, test) in zip(FITTED, folds(n, 4, seed=3)):
+        assert model.seen_ == set(train.tolist())
+        assert not model.seen_ & model.predicted_
+        assert model.predicted_ == set(test.tolist())
+        np.testing.assert_allclose(oof[test], y[train].mean())
+    assert set().union(*(m.predicted_ for m in FITTED)) == set(range(n))
+
+
+def test_cross_validate_oof_leave_one_out_by_hand():
+    FITTED.clear()
+    X = np.arange(4.0)[:, None]
+    y = np.array([1.0, 2.0, 3.0, 10.0])
+    per_fold, oof = cross_validate(Recorder(), X, y, n_folds=4, seed=0)
+    # leave-one-out: each prediction is the mean of the other three y
+    np.testing.assert_allclose(oof, [15 / 3, 14 / 3, 13 / 3, 6 / 3])
+    # per-fold rmse of one row is |y - oof|, whatever the fold order
+    assert sorted(per_fold["rmse"]) == pytest.approx(sorted([4.0, 8 / 3, 4 / 3, 8.0]))
+
+
+# --------------------------------------------------------------------------- 5. GPR surrogate
+
+def smooth(X):
+    return np.sin(3 * X[:, 0]) + X[:, 1] ** 2 + 0.5 * X[:, 2]
+
+
+@pytest.fixture(scope="module")
+def doe30():
+    from scipy.stats import qmc
+
+    X = qmc.scale(qmc.LatinHypercube(d=3, seed=np.random.default_rng(1)).random(30), [0, 0, 0], [1, 2, 10])
+    return X, smooth(X)
+
+
+def test_gpr_fits_smooth_function(doe30):
+    X, y = doe30
+    per_fold, oof = cross_validate(GPRSurrogate(n_restarts=1), X, y, n_folds=5, seed=0)
+    assert r2(y, oof) > 0.9
+    assert per_fold["r2"].mean() > 0.9
+
+
+def test_gpr_standardizes_with_training_rows_only(doe30):
+    X, y = doe30
+    train = np.arange(20)
+    model = GPRSurrogate(n_restarts=0).fit(X[train], y[train])
+    np.testing.assert_allclose(model.standardizer_.mean_, X[train].mean(axis=0))
+    np.testing.assert_allclose(model.standardizer_.scale_, X[train].std(axis=0, ddof=1))
+    assert not np.allclose(model.standardizer_.mean_, X.mean(axis=0))
+    np.testing.assert_allclose(model.gpr_.X_train_, (X[train] - X[train].mean(0)) / X[train].std(0, ddof=1))
+
+
+def test_gpr_json_round_trip_and_determinism(doe30):
+    X, y = doe30
+    model = GPRSurrogate(n_restarts=1, random_state=4).fit(X, y)
+    text = json.dumps(model.to_dict())
+    assert "pickle" not in text
+    copy = GPRSurrogate.from_dict(json.loads(text))
+    query = np.random.default_rng(2).uniform([0, 0, 0], [1, 2, 10], (50, 3))
+    mean, std = model.predict(query, return_std=True)
+    mean_copy, std_copy = copy.predict(query, return_std=True)
+    np.testing.assert_allclose(mean_copy, mean, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(std_copy, std, rtol=0, atol=1e-10)
+    assert copy.noise_std_ == pytest.approx(model.noise_std_, rel=1e-10)
+    again = GPRSurrogate(n_restarts=1, random_state=4).fit(X, y)
+    np.testing.assert_array_equal(again.predict(query), model.predict(query))
+
+
+# --------------------------------------------------------------------------- 6. residual model
+
+TABLE4 = {"n_estimators", "max_depth", "learning_rate", "subsample", "colsample_bytree", "min_child_weight",
+          "gamma", "reg_alpha", "reg_lambda"}
+
+
+def test_search_space_overrides():
+    space = residual.search_space({"n_estimators": {"low": 5, "high": 20}, "gamma": {"high": 1.0}})
+    assert set(space) == TABLE4
+    assert space["n_estimators"] == {"low": 5, "high": 20, "type": "int"}
+    assert space["gamma"] == {"low": 0.0, "high": 1.0, "type": "float"}
+    assert space["learning_rate"] == residual.DEFAULT_SEARCH_SPACE["learning_rate"]
+    # the default is not modified
+    assert residual.DEFAULT_SEARCH_SPACE["n_estimators"] == {"low": 50, "high": 600, "type": "int"}
+    assert residual.search_space(None) == residual.DEFAULT_SEARCH_SPACE
+    with pytest.raises(ValueError):
+        residual.search_space({"max_depth": {"low": 8, "high": 3}})
+
+
+def test_hyperparameter_table_has_table4_parameters():
+    space = residual.search_space(None)
+    params = {name: spec["low"] for name, spec in space.items()}
+    table = residual.hyperparameter_table(params, space)
+    assert len(table) == 9
+    assert set(table["xgboost_name"]) == TABLE4
+    assert table["parameter"].notna().all() and table["parameter"].nunique() == 9
+    row = table.set_index("xgboost_name").loc["learning_rate"]
+    assert (row["search_low"], row["search_high"], row["log_scale"]) == (0.005, 0.3, True)
+    assert table.set_index("xgboost_name").loc["max_depth", "value"] == 2
+
+
+def test_training_rows():
+    inside = [True, False, True, True, False]
+    np.testing.assert_array_equal(residual.training_rows(inside, "filtered"), [0, 2, 3])
+    np.testing.assert_array_equal(residual.training_rows(inside, "unfiltered"), [0, 1, 2, 3, 4])
+    np.testing.assert_array_equal(residual.training_rows(np.array([1, 0, 1]), "filtered"), [0, 2])
+    with pytest.raises(ValueError):
+        residual.training_rows(inside, "all")
+
+
+@pytest.fixture(scope="module")
+def tiny_residual_data():
+    rng = np.random.default_rng(5)
+    X = rng.uniform(0, 1, (200, 3))
+    y = 2 * X[:, 0] - X[:, 1] + 0.1 * rng.normal(size=200)
+    return X, y
+
+
+SMALL_SPACE = residual.search_space({"n_estimators": {"low": 5, "high": 20}, "max_depth": {"low": 2, "high": 3}})
+
+
+def _complete(study):
+    return sorted(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)), key=lambda t: t.number)
+
+
+def test_tune_writes_journal_and_resumes(tiny_residual_data, tmp_path):
+    X, y = tiny_residual_data
+    journal = tmp_path / "j.log"
+    kwargs = dict(n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)
+    first = residual.tune(X, y, n_trials=3, **kwargs)
+    assert journal.exists() and journal.stat().st_size > 0
+    before = [(t.number, t.params, t.value) for t in _complete(first)]
+    assert len(before) == 3
+    for _, params, value in before:
+        assert set(params) == TABLE4 and 5 <= params["n_estimators"] <= 20 and value > 0
+
+    resumed = residual.tune(X, y, n_trials=5, **kwargs)
+    assert resumed.study_name == first.study_name
+    after = _complete(resumed)
+    assert len(after) == 5
+    assert [(t.number, t.params, t.value) for t in after[:3]] == before
+    # the resumed trials explore new points instead of replaying the first ones with a restarted sampler
+    assert len({json.dumps(t.params, sort_keys=True) for t in after}) == 5
+    # the resumed study is read back from the journal, not from memory
+    names = optuna.study.get_all_study_names(residual.open_storage(str(journal)))
+    assert names == [first.study_name]
+
+    # asking again for trials already finished runs nothing new
+    assert len(_complete(residual.tune(X, y, n_trials=4, **kwargs))) == 5
+
+    best = residual.best_params(resumed, SMALL_SPACE)
+    assert best == min(after, key=lambda t: (t.value, t.number)).params
+
+    other = residual.tune(X, y + 1, n_trials=1, **kwargs)
+    assert other.study_name != first.study_name
+    assert len(_complete(other)) == 1
+    assert sorted(optuna.study.get_all_study_names(residual.open_storage(str(journal)))) == sorted(
+        [first.study_name, other.study_name])
+
+
+def test_tune_fresh_study_is_deterministic(tiny_residual_data, tmp_path):
+    X, y = tiny_residual_data
+    runs = [residual.tune(X, y, n_trials=2, n_folds=3, seed=1, storage=str(tmp_path / f"{i}.log"), space=SMALL_SPACE)
+            for i in range(2)]
+    assert [(t.params, t.value) for t in _complete(runs[0])] == [(t.params, t.value) for t in _complete(runs[1])]
+
+
+def test_tune_objective_is_cv_rmse(tiny_residual_data, tmp_path):
+    X, y = tiny_residual_data
+    study = residual.tune(X, y, n_trials=1, n_folds=3, seed=0, storage=str(tmp_path / "j.log"), space=SMALL_SPACE)
+    trial = _complete(study)[0]
+    per_fold, _ = cross_validate(residual.make_model(trial.params, 0), X, y, 3, 0)
+    assert trial.value == pytest.approx(per_fold["rmse"].mean(), rel=1e-12)
+
+
+def test_model_save_load_round_trip(tiny_residual_data, tmp_path):
+    X, y = tiny_residual_data
+    params = {name: spec["low"] for name, spec in SMALL_SPACE.items()}
+    model = residual.make_model(params, seed=0).fit(X, y)
+    path = tmp_path / "model.json"
+    residual.save_model(model, path)
+    json.loads(path.read_text())  # plain JSON text, not a pickle or UBJSON
+    loaded = residual.load_model(path)
+    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
+    assert not list(tmp_path.glob(".model.json.*"))  # no temporary file left behind
+
+
+# --------------------------------------------------------------------------- 7. matched cases
+
+def test_matched_summary_by_hand():
+    measured = [10.0, 12.0, 14.0]
+    simulated = [9.0, 12.0, 15.0]
+    surrogate = [9.5, 11.0, 14.5]
+    residual_pred = [0.5, 1.0, -1.0]
+    in_support = [True, True, False]
+    summary, cases = hybrid.matched_summary(measured, simulated, surrogate, residual_pred, in_support)
+
+    np.testing.assert_allclose(cases["true_residual"], [1.0, 0.0, -1.0])
+    np.testing.assert_allclose(cases["pred_hybrid"], [10.0, 12.0, 13.5])
+    np.testing.assert_allclose(cases["pred_hybrid_gated"], [10.0, 12.0, 14.5])  # surrogate outside the support
+    np.testing.assert_allclose(cases["error_hybrid"], [0.0, 0.0, 0.5])
+    np.testing.assert_allclose(cases["error_hybrid_gated"], [0.0, 0.0, -0.5])
+    np.testing.assert_allclose(cases["error_surrogate"], [0.5, 1.0, -0.5])
+
+    rows = summary.set_index("comparison")
+    assert (rows["n"] == 3).all()
+    res = rows.loc["residual (predicted vs true)"]  # errors [0.5, -1, 0]
+    assert res["rmse"] == pytest.approx(math.sqrt(1.25 / 3))
+    assert res["mae"] == pytest.approx(0.5)
+    assert res["bias"] == pytest.approx(-0.5 / 3)
+    assert res["r2"] == pytest.approx(1 - 1.25 / 2)  # true residual mean 0, SST 2
+    sim = rows.loc["simulation (measured vs FE)"]  # errors [1, 0, -1]
+    assert (sim["rmse"], sim["bias"], sim["error_std"]) == pytest.approx((math.sqrt(2 / 3), 0.0, 1.0))
+    sur = rows.loc["surrogate (measured vs y_FEM_hat)"]  # errors [0.5, 1, -0.5]
+    assert (sur["rmse"], sur["mae"], sur["bias"]) == pytest.approx((math.sqrt(0.5), 2 / 3, 1 / 3))
+    hyb = rows.loc["hybrid (measured vs y_hyb)"]  # errors [0, 0, 0.5]
+    assert hyb["rmse"] == pytest.approx(math.sqrt(0.25 / 3))
+    assert hyb["bias"] == pytest.approx(0.5 / 3)
+    assert hyb["error_mean"] == pytest.approx(0.5 / 3)
+    assert hyb["error_std"] == pytest.approx(math.sqrt(1 / 12))
+    assert hyb["r2"] == pytest.approx(1 - 0.25 / 8)  # measured mean 12, SST 8
+    gat = rows.loc["hybrid gated (measured vs gated y_hyb)"]  # errors [0, 0, -0.5]
+    assert (gat["rmse"], gat["bias"]) == pytest.approx((math.sqrt(0.25 / 3), -0.5 / 3))
+
+
+def test_gated_hybrid():
+    np.testing.assert_allclose(hybrid.gated(np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.5, 0.5]),
+                                            np.array([1, 0, 1])), [1.5, 2.0, 3.5])
+
+
+# --------------------------------------------------------------------------- 8. sensitivity table (Table 5)
+
+def test_sensitivity_table_by_hand():
+    predictions = pd.DataFrame({
+        "measured": [10.0, 10.0, 10.0, 10.0],
+        "in_support": [True, True, False, False],
+        "pred_surrogate": [9.0, 11.0, 8.0, 13.0],  # errors [1, -1, 2, -3]
+        "pred_hybrid_oof": [10.0, 10.5, 9.0, 10.0],  # errors [0, -0.5, 1, 0]
+        "pred_hybrid_unfiltered_oof": [11.0, 10.0, 10.0, 12.0],  # errors [-1, 0, 0, -2]
+    })
+    table = hybrid.sensitivity_table(predictions).set_index("region")
+    assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
+    expected = {
+        "rmse_surrogate_only": (1.0, math.sqrt(6.5), math.sqrt(15 / 4)),
+        "rmse_filtered_train_no_gate": (math.sqrt(0.125), math.sqrt(0.5), math.sqrt(1.25 / 4)),
+        "rmse_unfiltered_train_no_gate": (math.sqrt(0.5), math.sqrt(2.0), math.sqrt(5 / 4)),
+        # gated: filtered hybrid inside [0, -0.5], surrogate outside [2, -3]
+        "rmse_filtered_train_gated": (math.sqrt(0.125), math.sqrt(6.5), math.sqrt(13.25 / 4)),
+    }
+    for column, (inside, outside, everywhere) in expected.items():
+        got = table[column]
+        assert (got["in_support"], got["out_of_support"], got["all"]) == pytest.approx((inside, outside, everywhere)), column
+    assert table.loc["out_of_support", "rmse_filtered_train_gated"] == table.loc["out_of_support", "rmse_surrogate_only"]
+    assert table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
