@@ -1,0 +1,206 @@
+"""The workflow end to end on config/test.yaml, in temporary folders.
+
+One run feeds most checks (outputs, contracts, models that load, report); a
+second run in another folder must give byte-identical tables; a third reuses the
+first folder with changed matched cases, which must not move any trained model.
+"""
+import filecmp
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import xgboost as xgb
+import yaml
+
+from hybridtwin import io
+from hybridtwin.extension import DiscrepancyExtension
+from hybridtwin.gate import KNNSupportGate
+from hybridtwin.surrogate import GPRSurrogate
+
+from .conftest import ROOT
+
+pytestmark = pytest.mark.workflow
+TEST_CONFIG = os.path.join(ROOT, "config", "test.yaml")
+
+
+def snakemake(workdir, *args, config=TEST_CONFIG, check=True, **popen):
+    command = [sys.executable, "-m", "snakemake", *args, "-s", os.path.join(ROOT, "Snakefile"), "-d", str(workdir),
+               "--configfile", str(config), "--cores", "2", "--quiet", "progress"]
+    if popen:
+        return subprocess.Popen(command, **popen)
+    result = subprocess.run(command, capture_output=True, text=True)
+    if check and result.returncode != 0:
+        raise AssertionError(f"snakemake {' '.join(args)} failed:\n{result.stderr[-4000:]}")
+    return result
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("run")
+    snakemake(workdir)
+    return workdir
+
+
+def test_every_contracted_output_exists(run_dir):
+    results = run_dir / "results"
+    for name in ("table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
+                 "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension"):
+        assert (results / "tables" / f"{name}.csv").stat().st_size > 0, name
+    for name in ("figure2_residual_check", "figure3_error_distributions", "cause_1"):
+        assert (results / "figures" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+    assert list((results / "synthetic").glob("*.csv"))
+    assert (results / "diagnosis.md").read_text().startswith("# What the simulation gets wrong")
+    for rule_log in ("tune_residual", "diagnose", "support_gate"):
+        assert (results / "logs" / f"{rule_log}.log").exists()
+        assert (results / "benchmarks" / f"{rule_log}.tsv").exists()
+
+
+def test_production_predictions_contract(run_dir):
+    predictions = pd.read_csv(run_dir / "results/predictions/production.csv")
+    production = pd.read_csv(run_dir / "results/demo/production.csv")
+    assert len(predictions) == len(production)
+    assert predictions["row"].tolist() == list(range(len(production)))
+    for column in ("in_support", "knn_distance", "pred_surrogate", "pred_hybrid", "pred_hybrid_gated",
+                   "pred_extended", "pred_extended_hybrid"):
+        assert column in predictions and predictions[column].notna().all(), column
+    outside = ~predictions["in_support"]
+    assert np.allclose(predictions.loc[outside, "pred_hybrid_gated"], predictions.loc[outside, "pred_surrogate"])
+    assert np.allclose(predictions["measured"], production["draw_in_mm"])
+
+
+def test_tables_contracts(run_dir):
+    tables = run_dir / "results/tables"
+    causes = pd.read_csv(tables / "discrepancy_causes.csv")
+    assert {"rank", "cause", "form", "explained_share", "effect_range", "significant"} <= set(causes.columns)
+    assert causes["rank"].tolist() == list(range(1, len(causes) + 1))
+    assert causes["explained_share"].between(0, 1).all()
+    gain = pd.read_csv(tables / "model_extension.csv")
+    assert gain["model"].tolist() == ["surrogate", "hybrid", "extended", "extended_hybrid"]
+    assert {"rmse_in_support_cv", "rmse_out_of_support", "rmse_matched"} <= set(gain.columns)
+    table5 = pd.read_csv(tables / "table5_sensitivity.csv")
+    assert table5["region"].tolist() == ["in_support", "out_of_support", "all"]
+    table1 = pd.read_csv(tables / "table1_datasets.csv")
+    support = pd.read_csv(run_dir / "results/support/production_support.csv")
+    assert table1.loc[table1["dataset"] == "Production in-support subset", "size"].item() == support["in_support"].sum()
+    for name in ("table2_surrogate_cv", "table3_residual_cv", "table5_sensitivity", "matched_check", "model_extension"):
+        assert "evaluated_on" in pd.read_csv(tables / f"{name}.csv"), f"{name} must say on what data it was computed"
+
+
+def test_models_load_with_their_own_loaders_and_reproduce_predictions(run_dir):
+    models = run_dir / "results/models"
+    for path in models.rglob("*"):
+        if path.is_file():
+            assert path.suffix == ".json", f"{path.name}: only JSON model files"
+            json.loads(path.read_text())  # plain JSON, nothing to unpickle
+    assert not list((run_dir / "results").rglob("*.pkl")) and not list((run_dir / "results").rglob("*.pickle"))
+    production = pd.read_csv(run_dir / "results/data/production.csv")
+    predictions = pd.read_csv(run_dir / "results/predictions/production.csv")
+    inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
+    X = production[inputs].to_numpy(float)
+    surrogate = GPRSurrogate.from_dict(io.read_json(models / "surrogate_gpr.json")).predict(X)
+    assert np.allclose(surrogate, predictions["pred_surrogate"], atol=1e-5)
+    booster = xgb.Booster()
+    booster.load_model(models / "residual_xgb_filtered.json")
+    residual = booster.predict(xgb.DMatrix(X))
+    assert np.allclose(surrogate + residual, predictions["pred_hybrid"], atol=1e-4)
+    gate = KNNSupportGate.from_dict(io.read_json(models / "support_gate.json"))
+    assert (gate.predict(X) == predictions["in_support"].to_numpy()).all()
+    extension = DiscrepancyExtension.from_dict(io.read_json(models / "extension.json"))
+    assert np.allclose(surrogate + extension.predict(production), predictions["pred_extended"], atol=1e-4)
+
+
+def test_same_config_same_data_same_tables(run_dir, tmp_path):
+    snakemake(tmp_path)
+    comparison = filecmp.dircmp(run_dir / "results/tables", tmp_path / "results/tables")
+    assert comparison.left_list == comparison.right_list
+    _, mismatch, errors = filecmp.cmpfiles(run_dir / "results/tables", tmp_path / "results/tables",
+                                           comparison.common_files, shallow=False)
+    assert not mismatch and not errors, f"tables differ between two runs: {mismatch}"
+
+
+def test_report_builds(run_dir):
+    snakemake(run_dir, "--report", "results/report.html")
+    html = (run_dir / "results/report.html").read_text(errors="replace")
+    assert "table5_sensitivity.csv" in html and "figure2_residual_check.png" in html
+
+
+def test_matched_cases_never_used_for_training_or_tuning(run_dir, tmp_path):
+    workdir = tmp_path / "matched"
+    shutil.copytree(run_dir, workdir, symlinks=True)
+    matched = pd.read_csv(workdir / "results/demo/matched.csv")
+    matched["draw_in_meas_mm"] += 25.0
+    matched.to_csv(workdir / "results/demo/matched.csv", index=False)
+    before = {p.name: p.read_bytes() for p in (workdir / "results/models").glob("*.json")}
+    tables = ("table3_residual_cv.csv", "table4_hyperparameters.csv", "table2_surrogate_cv.csv")
+    tables_before = {name: (workdir / "results/tables" / name).read_bytes() for name in tables}
+    snakemake(workdir, "--rerun-triggers", "mtime")
+    assert {p.name: p.read_bytes() for p in (workdir / "results/models").glob("*.json")} == before
+    assert {name: (workdir / "results/tables" / name).read_bytes() for name in tables} == tables_before
+    assert (workdir / "results/tables/matched_check.csv").read_bytes() != (run_dir / "results/tables/matched_check.csv").read_bytes()
+
+
+def _complete_trials(journal: Path) -> list[dict]:
+    import optuna
+
+    storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(journal)))
+    trials = []
+    for summary in optuna.study.get_all_study_summaries(storage):
+        study = optuna.load_study(study_name=summary.study_name, storage=storage)
+        trials += [t.params for t in study.get_trials(states=(optuna.trial.TrialState.COMPLETE,))]
+    return trials
+
+
+def test_killed_tuning_resumes_and_keeps_finished_trials(tmp_path):
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config["tuning"]["n_trials"] = 10
+    config["tuning"]["search_space"] = {"n_estimators": {"low": 300, "high": 600, "type": "int"},
+                                        "max_depth": {"low": 6, "high": 10, "type": "int"}}
+    config_path = tmp_path / "config.yaml"
+    config_path.write_text(yaml.safe_dump(config))
+    snakemake(tmp_path, "results/residuals/production_residuals.csv", config=config_path)
+    journal = tmp_path / "results/optuna/journal.log"
+    process = snakemake(tmp_path, "results/tuning/best_params.json", config=config_path,
+                        start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 240
+    while time.time() < deadline and (not journal.exists() or len(_complete_trials(journal)) < 2):
+        time.sleep(1)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    finished = _complete_trials(journal)
+    assert 2 <= len(finished) < 10, "the run should have been killed during tuning"
+    assert not (tmp_path / "results/tuning/best_params.json").exists()
+    snakemake(tmp_path, "--unlock", config=config_path)  # a killed Snakemake leaves its lock behind
+    snakemake(tmp_path, "results/tuning/best_params.json", config=config_path)
+    after = _complete_trials(journal)
+    assert len(after) == 10
+    assert after[: len(finished)] == finished, "finished trials must be kept as they were"
+
+
+def test_two_tuning_workers_lose_no_trials(tmp_path):
+    script = (
+        "import sys, numpy as np\n"
+        "from hybridtwin import residual\n"
+        "rng = np.random.default_rng(0); X = rng.normal(size=(300, 3)); y = X[:, 0] + rng.normal(0, .1, 300)\n"
+        "residual.tune(X, y, n_trials=8, n_folds=3, seed=int(sys.argv[2]), storage=sys.argv[1],\n"
+        "              space={'n_estimators': {'low': 5, 'high': 30, 'type': 'int'}, 'max_depth': {'low': 2, 'high': 4, 'type': 'int'}})\n"
+    )
+    journal = tmp_path / "shared.log"
+    # the same data, space, folds and seed: both workers join one study
+    workers = [subprocess.Popen([sys.executable, "-c", script, str(journal), "3"]) for _ in range(2)]
+    assert all(worker.wait(timeout=300) == 0 for worker in workers)
+    import optuna
+
+    storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(journal)))
+    (summary,) = optuna.study.get_all_study_summaries(storage)
+    trials = optuna.load_study(study_name=summary.study_name, storage=storage).get_trials()
+    assert len(trials) >= 8
+    assert [t.number for t in trials] == list(range(len(trials))), "no trial number lost"
+    assert all(t.state == optuna.trial.TrialState.COMPLETE for t in trials), "every trial of both workers finished"
