@@ -23,13 +23,15 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--n-production", type=int, default=70_000)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--kinds", nargs="+", default=list(experiment.KINDS), choices=experiment.KINDS)
     parser.add_argument("--out", default="benchmarks/out/diagnosis_bank.csv")
     args = parser.parse_args()
     rows = []
     for index in range(args.scenarios):
-        kind = experiment.KINDS[index % len(experiment.KINDS)]
+        kind = args.kinds[index % len(args.kinds)]
         start = time.perf_counter()
-        outcome = experiment.run_scenario(kind, args.seed * 1000 + index, args.n_production, args.jobs)
+        outcome = experiment.run_scenario(kind, args.seed * 1000 + experiment.KINDS.index(kind) * 100 + index,
+                                          args.n_production, args.jobs)
         row = {k: v for k, v in asdict(outcome).items() if k != "expected"}
         row.update(expected=outcome.expected.cause, correct=outcome.correct, seconds_total=time.perf_counter() - start,
                    oos_extended_over_noise=outcome.rmse_oos_extended / outcome.noise)

@@ -86,7 +86,7 @@ class HiddenEffect:
 
 @dataclass(frozen=True)
 class DemoPlant:
-    seed: int = 11
+    seed: int = 8
     n_doe: int = 67
     n_production: int = 70_000
     n_matched: int = 7
@@ -210,8 +210,10 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     thickness = rng.normal(0.74, 0.012, n_coils)[coil] + rng.normal(0, 0.003, n)
     r_n = rng.normal(1.60, 0.06, n_coils)[coil] + rng.normal(0, 0.01, n)
 
-    campaigns = campaign_settings(n_runs, rng)
-    settings = campaigns[run] + rng.normal(0, [0.01, 0.01, 3, 3, 3, 3], (n, 6))
+    # settings are re-tuned twice per run (after the warm-up and mid-run)
+    segment = 2 * run + (in_run_s > np.array([np.median(in_run_s[run == r]) for r in range(n_runs)])[run])
+    campaigns = campaign_settings(2 * n_runs, rng)
+    settings = campaigns[segment] + rng.normal(0, [0.01, 0.01, 3, 3, 3, 3], (n, 6))
 
     # the die warms up within each run, more under higher blank-holder (cushion) forces
     warm = rng.uniform(18, 30, n_runs)[run] + 0.22 * (settings[:, 2:].mean(axis=1) - 290.0)

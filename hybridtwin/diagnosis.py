@@ -57,7 +57,7 @@ class Settings:
     max_causes: int = 3
     max_levels: int = 200
     max_rows: int = 10_000
-    surrogate_margin: float = 1.0
+    surrogate_margin: float = 0.5
     interactions: bool = True
     exclude: tuple[str, ...] = ()
     n_blocks: int = 200
@@ -108,13 +108,19 @@ class Diagnosis:
 
 # ---------------------------------------------------------------- candidates
 
-def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
-    """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
+def _timestamps(values: pd.Series) -> pd.Series | None:
+    """Text as timestamps (ISO first, then day-first formats), or None if they are not timestamps."""
     text = values.astype(str)
     stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
     if stamps.isna().mean() > 0.01:
         stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
-    if stamps.isna().mean() > 0.01:
+    return None if stamps.isna().mean() > 0.01 else stamps
+
+
+def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
+    """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
+    stamps = _timestamps(values)
+    if stamps is None:
         return None
     start = stamps.min() if origin is None else pd.Timestamp(origin)
     return ((stamps - start).dt.total_seconds() / 3600.0).to_numpy(float)
@@ -132,11 +138,7 @@ def cause_values(frame: pd.DataFrame, kind: str, columns, origin: str | None = N
 
 
 def time_origin(values: pd.Series) -> str:
-    text = values.astype(str)
-    stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
-    if stamps.isna().mean() > 0.01:
-        stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
-    return str(stamps.min())
+    return str(_timestamps(values).min())
 
 
 def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -> tuple[list[Candidate], dict[str, str]]:

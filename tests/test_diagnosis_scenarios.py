@@ -5,9 +5,9 @@ from hybridtwin import experiment
 
 from .conftest import SCENARIO_SEED
 
-# kinds whose effect the black-box hybrid cannot carry out of the support (new temperatures,
-# strokes, stronger coils, new setting combinations): the extension must be well below it there
-EXTRAPOLATING = {"temperature", "stroke_drift", "rp02_slope", "interaction"}
+# kinds whose effect the black-box hybrid cannot carry out of the support (a column it does not
+# see, stronger coils, new setting combinations): the extension must be well below it there
+EXTRAPOLATING = {"stroke_drift", "rp02_slope", "interaction"}
 
 
 @pytest.fixture(scope="module", params=experiment.KINDS)
@@ -35,5 +35,6 @@ def test_extension_gains_out_of_support(outcome):
         # an offset is known only for coils seen inside the support
         assert outcome.rmse_oos_known_levels_extended < 1.05 * outcome.rmse_oos_known_levels_hybrid, where
     else:
-        # a step at settings inside the support, or no effect: trees carry it too; the extension must not lose
+        # a saturating or step change whose plateaus the support already shows, or no effect:
+        # trees carry it too, so the extension can only match them; it must not lose
         assert outcome.rmse_oos_extended_hybrid < 1.05 * outcome.rmse_oos_hybrid, where
