@@ -57,7 +57,7 @@ class Settings:
     max_causes: int = 3
     max_levels: int = 200
     max_rows: int = 10_000
-    surrogate_margin: float = 0.5
+    surrogate_margin: float = 1.0
     interactions: bool = True
     exclude: tuple[str, ...] = ()
     n_blocks: int = 200
@@ -83,6 +83,7 @@ class Fit:
     p_value: float
     effect_range: float
     effect_std: float
+    alternatives: list = field(default_factory=list, repr=False)
 
     @property
     def explained_share(self) -> float:
@@ -198,10 +199,13 @@ def block_p_value(y, oof, n_blocks: int) -> float:
 
 
 def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: float = 0.0) -> Fit:
-    """The candidate's form with the lowest penalized held-out error (BIC-style penalty)."""
+    """The candidate's form with the lowest penalized held-out error (BIC-style penalty).
+
+    The other forms tried are kept in ``alternatives`` (best first).
+    """
     n = len(y)
     null_mse = float(np.mean(y**2))
-    tried = []
+    fits = []
     for name in candidate.form_names:
         try:
             oof = held_out(name, candidate.values, y, splits)
@@ -210,24 +214,36 @@ def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: fl
             log.debug("form %s on %s failed: %s", name, candidate.name, error)
             continue
         cv_mse = float(np.mean((y - oof) ** 2))
-        score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n)
-        tried.append((score, full.n_params, name, oof, full, cv_mse, full.predict(candidate.values)))
-    score, _, name, oof, full, cv_mse, fitted = min(tried, key=lambda t: (t[0], t[1]))
-    return Fit(candidate, full, oof, cv_mse, null_mse, score - (n * np.log(max(null_mse, 1e-300))),
-               block_p_value(y, oof, settings.n_blocks), float(np.ptp(fitted)), float(np.std(fitted)))
+        score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n) - n * np.log(max(null_mse, 1e-300))
+        fitted = full.predict(candidate.values)
+        fits.append(Fit(candidate, full, oof, cv_mse, null_mse, float(score), block_p_value(y, oof, settings.n_blocks),
+                        float(np.ptp(fitted)), float(np.std(fitted))))
+    fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
+    best = fits[0]
+    best.alternatives = fits
+    return best
+
+
+SHARE_TOLERANCE = 0.05  # a simpler cause may explain at most this much less of the residual variance
 
 
 def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) -> Fit:
-    """Among single-column candidates that predict what the best one predicts, up to ``min_effect``
-    (std of the difference), take the one with the fewest parameters.
+    """Among other single-column candidates' fits that predict what the best one predicts, up to
+    ``min_effect`` (std of the difference), take the one with the fewest parameters.
+
+    The best candidate's own form is left to the held-out score: a saturating curve
+    and a parabola may agree inside the support and part ways outside it.
 
     Coil ids follow time and campaigns, and a product a*b contains a and b: such
     many-parameter candidates also soak up the surrogate's own error, so they
     can edge out the simple cause that carries the effect.
     """
     fitted = best.form.predict(best.candidate.values)
-    simpler = [fit for fit in pool if fit.candidate.kind != "interaction" and fit.form.n_params < best.form.n_params
-               and acceptable(fit) and np.std(fit.form.predict(fit.candidate.values) - fitted) < min_effect]
+    simpler = [alt for fit in pool if fit.candidate.kind != "interaction" and fit.candidate.name != best.candidate.name
+               for alt in fit.alternatives
+               if alt.form.n_params < best.form.n_params and acceptable(alt)
+               and alt.explained_share >= best.explained_share - SHARE_TOLERANCE
+               and np.std(alt.form.predict(alt.candidate.values) - fitted) < min_effect]
     return min(simpler, key=lambda fit: (fit.form.n_params, fit.score, fit.candidate.name)) if simpler else best
 
 
@@ -349,6 +365,8 @@ def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_te
     for name, fit in marginal.items():
         if name in chosen:
             final = next(s for s in selected if s.candidate.name == name)
+            # the marginal scores of the form that was chosen, which may not be the best-scoring one
+            fit = next((alt for alt in fit.alternatives if alt.form.name == final.form.name), fit)
             significant = True
             conditional_share = final.explained_share
             p_value = final.p_value

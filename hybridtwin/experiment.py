@@ -45,6 +45,9 @@ class Scenario:
 def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_000) -> Scenario:
     """A hidden effect of the given kind with magnitude, threshold and direction drawn at random.
 
+    Magnitudes are drawn above the detection limit: an effect must vary the
+    residual by more than the surrogate's own uncertainty (about 1-1.5 mm here)
+    to be told from the surrogate's error.
     Thresholds are drawn as quantiles of the in-support values of their column, so
     that the transition lies where the method can see it.
     """
@@ -55,17 +58,19 @@ def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_
                         Expected("die_temp_c", ("sigmoid",)), rng.uniform(0.35, 0.75))
     if kind == "shim_step":
         column = str(rng.choice(["shim20_mm", "shim21_mm"]))
-        return Scenario(H("step", column, sign * rng.uniform(3, 6)), Expected(column, ("step",)), rng.uniform(0.3, 0.7))
+        # settings come in a few levels, so a steep sigmoid and a step fit alike: both are threshold forms
+        return Scenario(H("step", column, sign * rng.uniform(4, 7)), Expected(column, ("step", "sigmoid")),
+                        rng.uniform(0.3, 0.7))
     if kind == "stroke_drift":
-        drift = sign * rng.uniform(5, 10)  # mm over the production log's strokes
+        drift = sign * rng.uniform(7, 12)  # mm over the production log's strokes
         return Scenario(H("linear", "stroke_counter", drift / n_production, 250_000.0 + n_production / 2),
                         Expected("stroke_counter", ("linear",), monotone=True))
     if kind == "coil_offset":
         # coils shorter than a run, so that coil offsets are not confounded with one campaign each
-        return Scenario(H("group", "coil_id", rng.uniform(1.8, 3.0)), Expected("coil_id", ("group",)),
+        return Scenario(H("group", "coil_id", rng.uniform(2.5, 4.0)), Expected("coil_id", ("group",)),
                         blanks_per_coil=600)
     if kind == "rp02_slope":
-        return Scenario(H("linear", "rp02_mpa", sign * rng.uniform(0.15, 0.30), 215.0), Expected("rp02_mpa", ("linear",)))
+        return Scenario(H("linear", "rp02_mpa", sign * rng.uniform(0.25, 0.40), 215.0), Expected("rp02_mpa", ("linear",)))
     if kind == "interaction":
         a, b = rng.choice(["shim20_mm", "shim21_mm"]), rng.choice(["cushion_c1_kn", "cushion_c2_kn", "cushion_c3_kn"])
         return Scenario(H("product", str(a), sign * rng.uniform(15, 25), column_b=str(b)),
