@@ -86,7 +86,7 @@ class HiddenEffect:
 
 @dataclass(frozen=True)
 class DemoPlant:
-    seed: int = 8
+    seed: int = 1
     n_doe: int = 67
     n_production: int = 70_000
     n_matched: int = 7
@@ -95,7 +95,7 @@ class DemoPlant:
     offset_mm: float = 15.0
     blanks_per_coil: int = 1800
     hidden_effect: HiddenEffect = field(default_factory=lambda: HiddenEffect(
-        form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=48.0, width=3.5))
+        form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=50.0, width=3.0))
 
 
 def _unit(frame: pd.DataFrame, name: str) -> np.ndarray:
