@@ -33,7 +33,8 @@ def main() -> None:
         outcome = experiment.run_scenario(kind, args.seed * 1000 + experiment.KINDS.index(kind) * 100 + index,
                                           args.n_production, args.jobs)
         row = {k: v for k, v in asdict(outcome).items() if k != "expected"}
-        row.update(expected=outcome.expected.cause, correct=outcome.correct, seconds_total=time.perf_counter() - start,
+        row.update(expected=outcome.expected.cause, correct=outcome.correct, named_or_aliased=outcome.named_or_aliased,
+                   seconds_total=time.perf_counter() - start,
                    oos_extended_over_noise=outcome.rmse_oos_extended / outcome.noise)
         rows.append(row)
         print(f"{index:3d} {kind:13s} correct={outcome.correct!s:5s} top={outcome.top_cause}/{outcome.top_form} "

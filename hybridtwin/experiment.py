@@ -59,7 +59,7 @@ def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_
     if kind == "shim_step":
         column = str(rng.choice(["shim20_mm", "shim21_mm"]))
         # settings come in a few levels, so a steep sigmoid and a step fit alike: both are threshold forms
-        return Scenario(H("step", column, sign * rng.uniform(4, 7)), Expected(column, ("step", "sigmoid")),
+        return Scenario(H("step", column, sign * rng.uniform(5, 8)), Expected(column, ("step", "sigmoid")),
                         rng.uniform(0.3, 0.7))
     if kind == "stroke_drift":
         drift = sign * rng.uniform(7, 12)  # mm over the production log's strokes
@@ -104,14 +104,21 @@ class Outcome:
     rmse_oos_extended_truth: float
     rmse_oos_known_levels_hybrid: float
     rmse_oos_known_levels_extended: float
+    rmse_oos_known_levels_extended_hybrid: float
     noise: float
     seconds_diagnosis: float
 
     top_monotone: bool = False
+    top_aliases: tuple[str, ...] = ()
 
     @property
     def form_ok(self) -> bool:
         return self.top_form in self.expected.forms or (self.expected.monotone and self.top_monotone)
+
+    @property
+    def named_or_aliased(self) -> bool:
+        """The hidden cause is named, or named as what the top cause cannot be told apart from."""
+        return named(self.expected, self.top_cause) or any(named(self.expected, a) for a in self.top_aliases)
 
     @property
     def correct(self) -> bool:
@@ -174,7 +181,8 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
                    rmse(measured[outside], hybrid[outside]), rmse(measured[outside], extended[outside]),
                    rmse(measured[outside], extended_hybrid[outside]), rmse(truth[outside], extended[outside]),
                    rmse(measured[known], hybrid[known]), rmse(measured[known], extended[known]),
-                   plant.noise_mm, seconds, top_monotone)
+                   rmse(measured[known], extended_hybrid[known]),
+                   plant.noise_mm, seconds, top_monotone, tuple(result.aliases.get(str(top["cause"]), ())))
 
 
 def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
