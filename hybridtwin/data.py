@@ -485,6 +485,7 @@ def load_datasets(config: dict) -> dict[str, pd.DataFrame]:
     doe = load_doe(paths["doe"], columns, fmt, folds=folds, k=k)
     production = load_production(paths["production"], columns, fmt)
     matched = load_matched(paths["matched"], columns, fmt)
+    warn_matched_in_production(matched, production, columns.inputs, config["data"])
     far = describe_out_of_range(range_report(doe, production, columns.inputs), limit=0.5)
     if far:
         warn(f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
@@ -515,3 +516,14 @@ def check_support(production_in: np.ndarray, matched_in: np.ndarray, doe: pd.Dat
         warn(f"matched file {str(paths['matched'])!r}: {len(outside)} of {len(matched_in)} matched case(s) lie "
              f"outside the DoE support ({', '.join(_line(int(i)) for i in outside)}); the gated hybrid reverts to "
              "the surrogate there")
+
+
+def warn_matched_in_production(matched: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict) -> None:
+    """Matched cases must stay out of training: warn when one also stands in the production log."""
+    inputs = list(inputs)
+    shared = matched[inputs].reset_index().merge(production[inputs], on=inputs, how="inner")["index"].unique()
+    if len(shared):
+        rows = ", ".join(_line(int(i)) for i in sorted(shared))
+        warn(f"matched file {paths['matched']!r}: {len(shared)} matched case(s) ({rows}) also stand in the production "
+             f"file {paths['production']!r} with the same inputs; the residual model trains on those production rows, "
+             "so the matched check is not external for them: remove them from the production file")

@@ -18,7 +18,7 @@ score predictions against the truth and the noise floor.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -246,18 +246,18 @@ def plant_truth(plant: DemoPlant, frame: pd.DataFrame) -> np.ndarray:
 def generate(plant: DemoPlant) -> dict[str, pd.DataFrame]:
     """All demo data: doe, production, matched and the noise-free truth of each."""
     rng = np.random.default_rng([plant.seed, 3])
-    production = make_production(plant)
+    # matched trials: parts inside the DoE box, re-simulated at exactly their inputs (as a
+    # plant trial would be); they are taken out of the production log, so no model trains on them
+    parts = make_production(replace(plant, n_production=plant.n_production + plant.n_matched))
+    inside = np.ones(len(parts), bool)
+    for name, (low, high, _) in INPUTS.items():
+        inside &= parts[name].between(low, high).to_numpy()
+    pool = np.flatnonzero(inside) if inside.sum() >= plant.n_matched else np.arange(len(parts))
+    picks = np.sort(rng.choice(pool, plant.n_matched, replace=False))
+    matched = parts.iloc[picks].reset_index(drop=True)
+    production = parts.drop(index=picks).reset_index(drop=True)
     truth = plant_truth(plant, production)
     production[TARGET] = np.round(truth + rng.normal(0, plant.noise_mm, len(production)), 3)
-
-    # matched trials: parts from the production log that lie inside the DoE box,
-    # re-simulated at exactly their inputs (as a plant trial would be)
-    inside = np.ones(len(production), bool)
-    for name, (low, high, _) in INPUTS.items():
-        inside &= production[name].between(low, high).to_numpy()
-    pool = np.flatnonzero(inside) if inside.sum() >= plant.n_matched else np.arange(len(production))
-    picks = np.sort(rng.choice(pool, plant.n_matched, replace=False))
-    matched = production.iloc[picks].drop(columns=TARGET).reset_index(drop=True)
     matched_truth = plant_truth(plant, matched)
     matched.insert(0, "case", [f"M{i + 1}" for i in range(plant.n_matched)])
     matched[MATCHED_SIMULATED] = np.round(simulator(matched) + rng.normal(0, plant.fe_scatter_mm, plant.n_matched), 3)

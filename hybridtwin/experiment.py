@@ -146,8 +146,9 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
         threshold = float(np.quantile(production.loc[inside, effect.column], scenario.threshold_quantile))
         effect = replace(effect, threshold=round(threshold, 4))
     plant = replace(plant, hidden_effect=effect)
-    data = demo.generate(plant)  # same seed: the same parts, now with the hidden effect in the target
+    data = demo.generate(plant)  # same seed: the same parts (less the matched trials), with the effect
     production = data["production"]
+    inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
     expected = scenario.expected
     surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
     mean, std = surrogate.predict(production[inputs], return_std=True)

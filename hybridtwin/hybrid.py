@@ -7,9 +7,6 @@ from scipy.stats import qmc
 
 from .metrics import bias, mae, r2, rmse
 
-PREDICTION_COLUMNS = ("pred_surrogate", "pred_hybrid", "pred_hybrid_gated")
-
-
 def gated(surrogate: np.ndarray, residual: np.ndarray, in_support: np.ndarray) -> np.ndarray:
     """Hybrid inside the support, surrogate alone outside (the residual gated to zero)."""
     return np.asarray(surrogate) + np.where(np.asarray(in_support, bool), residual, 0.0)
@@ -59,7 +56,9 @@ def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
         rows.append(row)
     table = pd.DataFrame(rows)
     table["evaluated_on"] = ("measured production draw-in; residual models scored out-of-fold on their own "
-                             "training rows, the final filtered model on out-of-support rows")
+                             "training rows (a split other than the tuning's), the final filtered model on "
+                             "out-of-support rows; both residual models use the hyperparameters tuned on "
+                             "in-support rows")
     return table
 
 

@@ -107,10 +107,14 @@ def _complete(study: optuna.Study) -> int:
     return len(study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)))
 
 
-def best_params(study: optuna.Study, space: dict | None = None) -> dict:
-    """Best finished trial's parameters, ties broken by trial number (stable across reruns)."""
+def best_params(study: optuna.Study, space: dict | None = None, n_trials: int | None = None) -> dict:
+    """Best of the first ``n_trials`` finished trials (by number), ties broken by trial number.
+
+    A study run earlier with more trials thus gives the same answer as a fresh one.
+    """
     space = space or DEFAULT_SEARCH_SPACE
-    trials = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    trials = sorted(study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)), key=lambda t: t.number)
+    trials = trials[:n_trials] if n_trials else trials
     best = min(trials, key=lambda trial: (trial.value, trial.number))
     return {name: best.params[name] for name in space}
 
@@ -149,6 +153,11 @@ def hyperparameter_table(params: dict, space: dict) -> pd.DataFrame:
 def trials_table(study: optuna.Study) -> pd.DataFrame:
     trials = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     return pd.DataFrame([{"trial": t.number, "cv_rmse": t.value, **t.params} for t in sorted(trials, key=lambda t: t.number)])
+
+
+def evaluation_seed(seed: int) -> int:
+    """Seed of the CV split that scores the tuned model: not the split the tuning chose on."""
+    return seed + 1
 
 
 def training_rows(in_support, training: str) -> np.ndarray:

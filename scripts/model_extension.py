@@ -30,13 +30,15 @@ def main(snakemake):
     extended = models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
     oof_ext, oof_ext_hyb = extension.cross_validated(production.iloc[rows], X[rows], r[rows], causes, make_xgb,
-                                                     folds(len(rows), p.folds, p.seed))
+                                                     folds(len(rows), p.folds, residual.evaluation_seed(p.seed)))
     extended_cv, extended_hybrid_cv = extended.copy(), extended_hybrid.copy()
     extended_cv[rows], extended_hybrid_cv[rows] = oof_ext, oof_ext_hyb
     hybrid = read_checked(snakemake.input.hybrid)
     predictions = {"surrogate": surrogate, "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
                    "extended": surrogate + extended_cv, "extended_hybrid": surrogate + extended_hybrid_cv}
     cases = read_checked(snakemake.input.matched_cases)
+    if len(cases) != len(matched):
+        raise RuntimeError(f"{len(cases)} matched-case predictions for {len(matched)} matched cases")
     surrogate_m = cases["pred_surrogate"].to_numpy(float)
     extended_m = models.extension.predict(matched)
     matched_predictions = {"surrogate": surrogate_m, "hybrid": cases["pred_hybrid"].to_numpy(float),

@@ -9,6 +9,8 @@ from hybridtwin.runner import run
 def main(snakemake):
     hybrid = read_checked(snakemake.input.hybrid)
     extension = read_checked(snakemake.input.extension)
+    if len(hybrid) != len(extension):
+        raise RuntimeError(f"{len(hybrid)} hybrid rows but {len(extension)} extension rows")
     io.write_csv(pd.concat([hybrid, extension], axis=1), snakemake.output.predictions)
 
 

@@ -19,13 +19,15 @@ def main(snakemake):
     y = residuals.loc[rows, "residual_approx"].to_numpy(float)
     params = io.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
-    per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, snakemake.params.seed)
+    # a fold split other than the tuning's, so the score is not the winning trial's own
+    per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, residual.evaluation_seed(snakemake.params.seed))
     io.write_csv(per_fold, snakemake.output.folds)
     io.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
     io.write_csv(cv_table(per_fold, y, oof, f"XGBoost residual model ({snakemake.wildcards.training} train)",
                           f"approximate residuals of {len(y)} production rows "
                           f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
-                          f"{snakemake.params.folds}-fold CV"), snakemake.output.table)
+                          f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "
+                          "were tuned by CV on the in-support rows"), snakemake.output.table)
 
 
 run(snakemake, main)

@@ -17,9 +17,9 @@ def main(snakemake):
                           n_trials=snakemake.params.n_trials, n_folds=snakemake.params.folds,
                           seed=snakemake.params.seed, storage=snakemake.params.storage, space=space,
                           n_jobs=snakemake.threads)
-    best = residual.best_params(study, space)
-    logging.info("study %s: best CV RMSE %.4f with %s", study.study_name, study.best_value, best)
-    io.write_json({"study": study.study_name, "params": best, "cv_rmse": study.best_value}, snakemake.output.best)
+    best = residual.best_params(study, space, snakemake.params.n_trials)
+    logging.info("study %s: best parameters %s", study.study_name, best)
+    io.write_json({"study": study.study_name, "params": best}, snakemake.output.best)
     io.write_csv(residual.hyperparameter_table(best, space), snakemake.output.table)
     io.write_csv(residual.trials_table(study), snakemake.output.trials)
 

@@ -12,7 +12,7 @@ def main(snakemake):
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
     for name in ("doe", "production", "matched"):
-        io.write_csv(frames[name], snakemake.output[name])
+        io.write_csv(frames[name], snakemake.output[name], float_format=None)  # exact round trip
     lines = [f"{name}: {len(frames[name])} rows, {frames[name].shape[1]} columns" for name in frames]
     lines += [f"WARNING: {warning.message}" for warning in caught]
     with io.atomic_path(snakemake.output.report) as temporary:

@@ -1,9 +1,16 @@
 # Shared settings of the rules: column names from the config, file layout.
+import hashlib
+from pathlib import Path
 
 INPUTS = list(config["columns"]["inputs"])
 TARGET = config["columns"]["target"]
 SEED = config["seed"]
 FOLDS = config["cv"]["folds"]
+
+# every rule's params carry a hash of the package's code, so a change there reruns what it affects
+PACKAGE_CODE = hashlib.sha256(
+    b"".join(path.read_bytes() for path in sorted((Path(workflow.main_snakefile).parent / "hybridtwin").glob("*.py")))
+).hexdigest()[:16]
 
 TABLES = "results/tables"
 FIGURES = "results/figures"

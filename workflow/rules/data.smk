@@ -10,6 +10,7 @@ rule demo_data:
         matched_truth=f"{DEMO}/matched_truth.csv",
         spec=f"{DEMO}/demo_spec.json",
     params:
+        code=PACKAGE_CODE,
         demo=config["demo"],
     conda:
         "../envs/hybridtwin.yaml"
@@ -32,6 +33,7 @@ rule validate_inputs:
         matched="results/data/matched.csv",
         report="results/data/validation_report.txt",
     params:
+        code=PACKAGE_CODE,
         settings={key: config[key] for key in ("data", "columns", "csv", "cv", "gate")},
     conda:
         "../envs/hybridtwin.yaml"
@@ -50,6 +52,7 @@ rule standardize:
         model=f"{MODELS}/doe_standardization.json",
         table=f"{TABLES}/doe_standardization.csv",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
     conda:
         "../envs/hybridtwin.yaml"
@@ -74,6 +77,7 @@ rule support_gate:
         figure=report(f"{FIGURES}/support_distances.png", caption="../report/support_distances.rst",
                       category="1. Data and support"),
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
@@ -96,6 +100,7 @@ rule table1:
     output:
         table=report(f"{TABLES}/table1_datasets.csv", caption="../report/table1.rst", category="1. Data and support"),
     params:
+        code=PACKAGE_CODE,
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
     conda:

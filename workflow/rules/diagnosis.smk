@@ -18,6 +18,7 @@ rule diagnose:
             category="6. Diagnosis",
         ),
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         folds=FOLDS,
@@ -51,6 +52,7 @@ rule model_extension:
         remainder=f"{MODELS}/residual_xgb_extended.json",
         predictions="results/predictions/extension.csv",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
@@ -72,6 +74,8 @@ rule production_predictions:
         extension=rules.model_extension.output.predictions,
     output:
         predictions="results/predictions/production.csv",
+    params:
+        code=PACKAGE_CODE,
     conda:
         "../envs/hybridtwin.yaml"
     log:
@@ -91,6 +95,7 @@ rule diagnosis_report:
     output:
         report=report("results/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
     params:
+        code=PACKAGE_CODE,
         target=TARGET,
         unit=config["units"]["target"],
     conda:

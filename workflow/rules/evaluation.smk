@@ -13,6 +13,7 @@ rule predict_production:
     output:
         predictions="results/predictions/hybrid.csv",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
     conda:
         "../envs/hybridtwin.yaml"
@@ -38,6 +39,7 @@ rule matched_check:
         figure=report(f"{FIGURES}/figure2_residual_check.png", caption="../report/figure2.rst",
                       category="4. Hybrid evaluation"),
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         matched_simulated=config["columns"]["matched_simulated"],
         matched_measured=config["columns"]["matched_measured"],
@@ -58,6 +60,8 @@ rule figure_errors:
     output:
         figure=report(f"{FIGURES}/figure3_error_distributions.png", caption="../report/figure3.rst",
                       category="4. Hybrid evaluation"),
+    params:
+        code=PACKAGE_CODE,
     conda:
         "../envs/hybridtwin.yaml"
     log:
@@ -74,6 +78,8 @@ rule sensitivity:
     output:
         table=report(f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst",
                      category="4. Hybrid evaluation"),
+    params:
+        code=PACKAGE_CODE,
     conda:
         "../envs/hybridtwin.yaml"
     log:
@@ -95,6 +101,7 @@ rule synthetic:
                    category="5. Synthetic data"),
         support="results/synthetic/support_samples.csv",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,

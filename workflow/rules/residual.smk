@@ -11,6 +11,7 @@ rule tune_residual:
         table=report(f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst",
                      category="3. Residual model"),
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
@@ -41,6 +42,7 @@ rule residual_cv:
     wildcard_constraints:
         training="filtered|unfiltered",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
@@ -61,6 +63,8 @@ rule table3:
     output:
         table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst",
                      category="3. Residual model"),
+    params:
+        code=PACKAGE_CODE,
     conda:
         "../envs/hybridtwin.yaml"
     log:
@@ -68,7 +72,7 @@ rule table3:
     benchmark:
         benchmark_of("table3")
     shell:
-        "cp {input.table} {output.table} 2> {log}"
+        "cp {input.table} {output.table}.tmp 2> {log} && mv {output.table}.tmp {output.table}"
 
 
 rule residual_fit:
@@ -81,6 +85,7 @@ rule residual_fit:
     wildcard_constraints:
         training="filtered|unfiltered",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         seed=SEED,
     threads: 2

@@ -10,6 +10,7 @@ rule surrogate_cv:
         figure=report(f"{FIGURES}/surrogate_parity.png", caption="../report/surrogate_parity.rst",
                       category="2. Surrogate"),
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         folds=FOLDS,
@@ -31,6 +32,7 @@ rule surrogate_fit:
     output:
         model=f"{MODELS}/surrogate_gpr.json",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,
@@ -53,6 +55,7 @@ rule residuals:
     output:
         residuals="results/residuals/production_residuals.csv",
     params:
+        code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
     conda:
