@@ -84,7 +84,8 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
     X, y = np.asarray(X, float), np.asarray(y, float)
     name = f"{study_prefix}-{fingerprint(X, y, space, n_folds, seed)}"
     study = optuna.create_study(study_name=name, storage=open_storage(storage), direction="minimize",
-                                sampler=optuna.samplers.TPESampler(seed=seed), load_if_exists=True)
+                                sampler=optuna.samplers.TPESampler(seed=seed), load_if_exists=True,
+                                pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0))
     done = _complete(study)
     if done:
         log.info("resuming study %s with %d finished trial(s)", name, done)
@@ -93,18 +94,28 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
         study.sampler = optuna.samplers.TPESampler(seed=seed + len(study.trials))
 
     def objective(trial: optuna.Trial) -> float:
-        per_fold, _ = cross_validate(make_model(suggest(trial, space), seed, n_jobs), X, y, n_folds, seed)
+        def report(rows):
+            # a trial whose running CV RMSE is worse than the median of earlier trials stops early
+            trial.report(float(np.mean([row["rmse"] for row in rows])), len(rows) - 1)
+            if trial.should_prune():
+                raise optuna.TrialPruned()
+
+        per_fold, _ = cross_validate(make_model(suggest(trial, space), seed, n_jobs), X, y, n_folds, seed, report)
         return float(per_fold["rmse"].mean())
 
     if done < n_trials:
         # the callback stops every worker sharing the study once enough trials have finished
         study.optimize(objective, n_trials=n_trials - done,
-                       callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=(optuna.trial.TrialState.COMPLETE,))])
+                       callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED)])
     return study
 
 
+FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+
+
 def _complete(study: optuna.Study) -> int:
-    return len(study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)))
+    """Finished trials: completed or stopped early by the pruner."""
+    return len(study.get_trials(deepcopy=False, states=FINISHED))
 
 
 def best_params(study: optuna.Study, space: dict | None = None, n_trials: int | None = None) -> dict:
@@ -113,8 +124,8 @@ def best_params(study: optuna.Study, space: dict | None = None, n_trials: int | 
     A study run earlier with more trials thus gives the same answer as a fresh one.
     """
     space = space or DEFAULT_SEARCH_SPACE
-    trials = sorted(study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)), key=lambda t: t.number)
-    trials = trials[:n_trials] if n_trials else trials
+    trials = sorted(study.get_trials(deepcopy=False, states=FINISHED), key=lambda t: t.number)
+    trials = [t for t in (trials[:n_trials] if n_trials else trials) if t.state == optuna.trial.TrialState.COMPLETE]
     best = min(trials, key=lambda trial: (trial.value, trial.number))
     return {name: best.params[name] for name in space}
 
@@ -151,8 +162,11 @@ def hyperparameter_table(params: dict, space: dict) -> pd.DataFrame:
 
 
 def trials_table(study: optuna.Study) -> pd.DataFrame:
-    trials = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
-    return pd.DataFrame([{"trial": t.number, "cv_rmse": t.value, **t.params} for t in sorted(trials, key=lambda t: t.number)])
+    trials = sorted(study.get_trials(deepcopy=False, states=FINISHED), key=lambda t: t.number)
+    return pd.DataFrame([{"trial": t.number, "state": t.state.name.lower(),
+                          # a pruned trial shows its running CV RMSE when it was stopped
+                          "cv_rmse": t.value if t.value is not None else t.intermediate_values[max(t.intermediate_values)],
+                          **t.params} for t in trials])
 
 
 def evaluation_seed(seed: int) -> int:

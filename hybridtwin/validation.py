@@ -16,8 +16,11 @@ def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nda
     return list(KFold(n_splits=n_folds, shuffle=True, random_state=seed).split(np.arange(n_rows)))
 
 
-def cross_validate(estimator, X, y, n_folds: int, seed: int) -> tuple[pd.DataFrame, np.ndarray]:
-    """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only."""
+def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) -> tuple[pd.DataFrame, np.ndarray]:
+    """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only.
+
+    ``after_fold(rows)``, if given, sees the per-fold metrics so far after each fold (to stop early).
+    """
     X, y = np.asarray(X, float), np.asarray(y, float)
     oof = np.empty_like(y)
     rows = []
@@ -26,6 +29,8 @@ def cross_validate(estimator, X, y, n_folds: int, seed: int) -> tuple[pd.DataFra
         oof[test] = model.predict(X[test])
         rows.append({"fold": fold, "n_train": len(train), "n_test": len(test), "rmse": rmse(y[test], oof[test]),
                      "mae": mae(y[test], oof[test]), "bias": bias(y[test], oof[test]), "r2": r2(y[test], oof[test])})
+        if after_fold is not None:
+            after_fold(rows)
     return pd.DataFrame(rows), oof
 
 
