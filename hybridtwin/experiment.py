@@ -136,8 +136,8 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
     for _ in range(20):  # a plant whose support holds enough parts and coils to learn from
         plant = replace(demo.DemoPlant(), seed=int(rng.integers(1 << 31)), n_production=n_production,
                         blanks_per_coil=scenario.blanks_per_coil, hidden_effect=demo.HiddenEffect())
-        production = demo.make_production(plant)
-        doe = demo.make_doe(plant)
+        blank = demo.generate(plant)  # the same parts as below, before the effect is added
+        production, doe = blank["production"], blank["doe"]
         inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
         if inside.sum() >= MIN_IN_SUPPORT * n_production and production.loc[inside, "coil_id"].nunique() >= 10:
             break
