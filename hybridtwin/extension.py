@@ -15,6 +15,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 
 from . import forms
 from .diagnosis import cause_values
+from .validation import splice_out_of_fold
 
 log = logging.getLogger(__name__)
 
@@ -120,6 +121,47 @@ def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, ca
         extended[test] = models.extension.predict(frame.iloc[test])
         extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
     return extended, extended_hybrid
+
+
+@dataclass
+class Evaluation:
+    """The fitted extension and its predictions: final models everywhere (``production``) and, for
+    scoring, out-of-fold values on the in-support rows (``scored``), plus the matched cases."""
+
+    models: Models
+    production: pd.DataFrame
+    scored: dict[str, np.ndarray]
+    matched: dict[str, np.ndarray]
+
+
+def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataFrame, matched: pd.DataFrame,
+             matched_cases: pd.DataFrame, inputs, causes, make_xgb, splits) -> Evaluation:
+    """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
+
+    ``residuals``: residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the hybrid's
+    predictions (pred_hybrid_oof); ``matched_cases``: surrogate and hybrid predictions per matched case.
+    ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold predictions.
+    """
+    if len(matched_cases) != len(matched):
+        raise ValueError(f"{len(matched_cases)} matched-case predictions for {len(matched)} matched cases")
+    rows = np.flatnonzero(residuals["in_support"].astype(bool).to_numpy())
+    X = production[list(inputs)].to_numpy(float)
+    r = residuals["residual_approx"].to_numpy(float)
+    surrogate = residuals["pred_surrogate"].to_numpy(float)
+    models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
+    extended = surrogate + models.extension.predict(production)
+    extended_hybrid = extended + models.remainder.predict(X)
+    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits)
+    scored = {"surrogate": surrogate, "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
+              "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
+              "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid)}
+    surrogate_m = matched_cases["pred_surrogate"].to_numpy(float)
+    extended_m = surrogate_m + models.extension.predict(matched)
+    matched_predictions = {"surrogate": surrogate_m, "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
+                           "extended": extended_m,
+                           "extended_hybrid": extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float))}
+    return Evaluation(models, pd.DataFrame({"pred_extended": extended, "pred_extended_hybrid": extended_hybrid}),
+                      scored, matched_predictions)
 
 
 def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched_measured,

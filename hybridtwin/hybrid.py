@@ -6,6 +6,7 @@ import pandas as pd
 from scipy.stats import qmc
 
 from .metrics import bias, mae, r2, rmse
+from .validation import splice_out_of_fold
 
 def gated(surrogate: np.ndarray, residual: np.ndarray, in_support: np.ndarray) -> np.ndarray:
     """Hybrid inside the support, surrogate alone outside (the residual gated to zero)."""
@@ -122,10 +123,8 @@ def production_predictions(residuals: pd.DataFrame, support: pd.DataFrame, filte
     n = len(residuals)
     surrogate = residuals["pred_surrogate"].to_numpy(float)
     inside = support["in_support"].astype(bool).to_numpy()
-    filtered_cv = np.asarray(filtered, float).copy()
-    filtered_cv[filtered_oof["row"].to_numpy(int)] = filtered_oof["pred_residual_oof"].to_numpy(float)
-    unfiltered_cv = np.full(n, np.nan)
-    unfiltered_cv[unfiltered_oof["row"].to_numpy(int)] = unfiltered_oof["pred_residual_oof"].to_numpy(float)
+    filtered_cv = splice_out_of_fold(filtered, filtered_oof["row"], filtered_oof["pred_residual_oof"])
+    unfiltered_cv = splice_out_of_fold(np.full(n, np.nan), unfiltered_oof["row"], unfiltered_oof["pred_residual_oof"])
     return pd.DataFrame({
         "row": np.arange(n), "in_support": inside, "knn_distance": support["knn_distance"].to_numpy(float),
         "measured": residuals["measured"].to_numpy(float),

@@ -43,3 +43,11 @@ def cv_table(per_fold: pd.DataFrame, y, oof, model: str, evaluated_on: str) -> p
     row.update({"pooled_r2": r2(y, oof), "pooled_rmse": rmse(y, oof), "pooled_mae": mae(y, oof)})
     row["evaluated_on"] = evaluated_on
     return pd.DataFrame([row])
+
+
+def splice_out_of_fold(final, rows, oof) -> np.ndarray:
+    """Final-model predictions with the out-of-fold ones put in at the rows the model was trained on,
+    so that no row is scored by a model that saw it."""
+    spliced = np.asarray(final, float).copy()
+    spliced[np.asarray(rows, int)] = np.asarray(oof, float)
+    return spliced
