@@ -68,13 +68,24 @@ def fingerprint(*parts) -> str:
     return digest.hexdigest()[:16]
 
 
+# seconds after which a journal lock left by a killed worker is taken over
+LOCK_GRACE_S = 30
+
+
 def open_storage(storage: str):
     """A journal file path (default) or an RDB URL such as sqlite:///optuna.db or postgresql://..."""
     if "://" in storage:
         return storage
     Path(storage).parent.mkdir(parents=True, exist_ok=True)
-    backend = optuna.storages.journal.JournalFileBackend(str(storage))
+    backend = optuna.storages.journal.JournalFileBackend(str(Path(storage).resolve()), lock_obj=journal_lock(storage))
     return optuna.storages.JournalStorage(backend)
+
+
+def journal_lock(storage: str) -> optuna.storages.journal.JournalFileSymlinkLock:
+    """The lock that workers sharing a journal file take while writing to it."""
+    # Absolute: the lock is a symlink to the journal, and a relative target dangles, so a lock left by
+    # a killed worker would never be recognised as stale and the next run would wait forever.
+    return optuna.storages.journal.JournalFileSymlinkLock(str(Path(storage).resolve()), grace_period=LOCK_GRACE_S)
 
 
 def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: dict | None = None,

@@ -1,5 +1,7 @@
 import os
 import random
+import signal
+import subprocess
 from dataclasses import replace
 
 import pytest
@@ -7,6 +9,23 @@ import pytest
 from hybridtwin import demo
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_command(command: list[str], timeout: float, **kwargs) -> subprocess.CompletedProcess:
+    """Run a command with its output captured; a hang fails the test instead of stalling the suite.
+
+    The command gets its own process group so that, on a timeout, its children (Snakemake's
+    jobs) are killed with it.
+    """
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True, **kwargs)
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        stdout, stderr = process.communicate()
+        raise AssertionError(f"{' '.join(command)} still running after {timeout} s:\n{stderr[-4000:]}") from None
+    return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
 def pytest_report_header(config):

@@ -23,6 +23,8 @@ from hybridtwin.data import (Columns, CsvFormat, DataWarning, InputError, check_
                              read_csv, require_columns)
 from hybridtwin.gate import KNNSupportGate
 
+from .conftest import run_command
+
 ROOT = Path(__file__).resolve().parents[1]
 INPUTS = ["thickness_mm", "die_temp_c", "cushion_kn"]
 TARGET, SIMULATED, MEASURED = "draw_in_mm", "draw_in_sim_mm", "draw_in_meas_mm"
@@ -449,9 +451,9 @@ def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
     configfile.write_text(yaml.safe_dump(config))
     environment = {**os.environ, "PYTHONWARNINGS": "ignore"}
     # the target stops the run after rule validate_inputs, should the data pass
-    return subprocess.run([sys.executable, "-m", "snakemake", "results/data/doe.csv", "-s", str(ROOT / "Snakefile"),
-                           "-d", str(case.folder), "--configfile", str(configfile), "--cores", "1", "-q"],
-                          capture_output=True, text=True, timeout=120, env=environment)
+    return run_command([sys.executable, "-m", "snakemake", "results/data/doe.csv", "-s", str(ROOT / "Snakefile"),
+                        "-d", str(case.folder), "--configfile", str(configfile), "--cores", "1", "-q"],
+                       timeout=300, env=environment)
 
 
 @pytest.mark.parametrize("changes, words", [

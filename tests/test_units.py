@@ -1,6 +1,8 @@
 """Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
 import json
 import math
+import threading
+from pathlib import Path
 
 import numpy as np
 import optuna
@@ -376,6 +378,22 @@ def test_tune_writes_journal_and_resumes(tiny_residual_data, tmp_path):
     assert len(_complete(other)) == 1
     assert sorted(optuna.study.get_all_study_names(residual.open_storage(str(journal)))) == sorted(
         [first.study_name, other.study_name])
+
+
+def test_tune_takes_over_a_lock_left_by_a_killed_worker(tiny_residual_data, tmp_path, monkeypatch):
+    """A worker killed while writing leaves Optuna's lock link behind; the next run must not wait forever."""
+    X, y = tiny_residual_data
+    monkeypatch.chdir(tmp_path)  # a relative journal path, as in the config
+    monkeypatch.setattr(residual, "LOCK_GRACE_S", 2)
+    journal = Path("results/optuna/journal.log")
+    residual.tune(X, y, n_trials=1, n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)
+    assert residual.journal_lock(str(journal)).acquire()  # and never released, as by a killed worker
+    finished = []
+    worker = threading.Thread(target=lambda: finished.append(residual.tune(
+        X, y, n_trials=2, n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)), daemon=True)
+    worker.start()
+    worker.join(timeout=60)
+    assert finished and len(_complete(finished[0])) == 2, "the stale lock was never released"
 
 
 def test_tune_fresh_study_is_deterministic(tiny_residual_data, tmp_path):

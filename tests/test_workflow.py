@@ -25,7 +25,7 @@ from hybridtwin.extension import DiscrepancyExtension
 from hybridtwin.gate import KNNSupportGate
 from hybridtwin.surrogate import GPRSurrogate
 
-from .conftest import ROOT
+from .conftest import ROOT, run_command
 
 pytestmark = pytest.mark.workflow
 TEST_CONFIG = os.path.join(ROOT, "config", "test.yaml")
@@ -36,7 +36,7 @@ def snakemake(workdir, *args, config=TEST_CONFIG, check=True, **popen):
                "--configfile", str(config), "--cores", "2", "--quiet", "progress"]
     if popen:
         return subprocess.Popen(command, **popen)
-    result = subprocess.run(command, capture_output=True, text=True)
+    result = run_command(command, timeout=900)
     if check and result.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed:\n{result.stderr[-4000:]}")
     return result
