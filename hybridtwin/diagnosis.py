@@ -198,11 +198,39 @@ def block_p_value(y, oof, n_blocks: int) -> float:
     return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
 
 
-def best_fit(candidate: Candidate, y, splits, settings: Settings, min_effect: float = 0.0) -> Fit:
+BINS_PER_FOLD = 4
+
+
+def value_folds(candidate: Candidate, settings: Settings) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Folds that hold out whole stretches of a numeric candidate's values.
+
+    Press settings are constant within a campaign, and the surrogate's error is too,
+    so the residual carries one level per campaign. Rows held out at random leave each
+    campaign's other rows in training, and a many-step form (a monotone trend) would
+    be scored on recalling those levels. Held-out quantile bins of the candidate's own
+    values, spread over the folds, score a form on values it has not seen: what it
+    will meet out of the support. Group ids (their levels must be seen) and products
+    (three parameters cannot recall levels) keep shuffled folds.
+    """
+    n = len(candidate.values)
+    if candidate.kind in ("group", "interaction"):
+        return kfolds(n, settings.folds, settings.seed)
+    edges = np.quantile(candidate.values, np.linspace(0, 1, BINS_PER_FOLD * settings.folds + 1)[1:-1])
+    bins = np.unique(np.searchsorted(edges, candidate.values, side="right"), return_inverse=True)[1]
+    n_bins = bins.max() + 1
+    if n_bins < settings.folds:  # a few levels only: nothing to spread
+        return kfolds(n, settings.folds, settings.seed)
+    fold_of_bin = np.random.default_rng(settings.seed).permutation(n_bins) % settings.folds
+    fold = fold_of_bin[bins]
+    return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(settings.folds)]
+
+
+def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.0) -> Fit:
     """The candidate's form with the lowest penalized held-out error (BIC-style penalty).
 
     The other forms tried are kept in ``alternatives`` (best first).
     """
+    splits = value_folds(candidate, settings)
     n = len(y)
     null_mse = float(np.mean(y**2))
     fits = []
@@ -237,19 +265,32 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     Coil ids follow time and campaigns, and a product a*b contains a and b: such
     many-parameter candidates also soak up the surrogate's own error, so they
     can edge out the simple cause that carries the effect.
+
+    Elapsed time counts as one parameter more than it has: time causes nothing by
+    itself, it stands for whatever changes with it (tool wear in strokes, a warming
+    die), so a logged quantity that predicts the same is named instead.
     """
     fitted = best.form.predict(best.candidate.values)
+
+    def predicts_the_same(alt: Fit) -> bool:
+        return (acceptable(alt) and alt.explained_share >= best.explained_share - SHARE_TOLERANCE
+                and np.std(alt.form.predict(alt.candidate.values) - fitted) < min_effect)
+
+    # the best column counts as simple as its simplest form that predicts the same
+    own = min([_complexity(best)] + [_complexity(alt) for alt in best.alternatives if predicts_the_same(alt)])
     simpler = [alt for fit in pool if fit.candidate.kind != "interaction" and fit.candidate.name != best.candidate.name
-               for alt in fit.alternatives
-               if alt.form.n_params < best.form.n_params and acceptable(alt)
-               and alt.explained_share >= best.explained_share - SHARE_TOLERANCE
-               and np.std(alt.form.predict(alt.candidate.values) - fitted) < min_effect]
-    return min(simpler, key=lambda fit: (fit.form.n_params, fit.score, fit.candidate.name)) if simpler else best
+               for alt in fit.alternatives if _complexity(alt) < own and predicts_the_same(alt)]
+    return min(simpler, key=lambda fit: (_complexity(fit), fit.score, fit.candidate.name)) if simpler else best
 
 
-def fit_all(candidates: list[Candidate], y, splits, settings: Settings, min_effect: float) -> dict[str, Fit]:
+def _complexity(fit: Fit) -> float:
+    """Parameters, with elapsed time ranked behind a logged quantity of as many parameters."""
+    return fit.form.n_params + (0.5 if fit.candidate.kind == "time" else 0.0)
+
+
+def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
     """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
-    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, splits, settings, min_effect) for c in candidates)
+    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, settings, min_effect) for c in candidates)
     return {c.name: fit for c, fit in zip(candidates, fits)}
 
 
@@ -293,11 +334,10 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     blocks = np.array_split(residual, min(settings.n_blocks, max(2, len(residual) // 20)))
     offset_se = float(np.std([b.mean() for b in blocks], ddof=1) / np.sqrt(len(blocks)))
     candidates, skipped = build_candidates(frame, inputs, exclude, settings)
-    splits = kfolds(len(y), settings.folds, settings.seed)
     min_effect = settings.surrogate_margin * surrogate_std
     n_tests = len(candidates)
 
-    marginal = fit_all(candidates, y, splits, settings, min_effect)
+    marginal = fit_all(candidates, y, settings, min_effect)
 
     # forward selection, each step conditional on the causes already chosen
     selected: list[Fit] = []
@@ -318,15 +358,15 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         remaining = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
         remaining = remaining - remaining.mean()
         chosen = {s.candidate.name for s in selected}
-        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, splits, settings, min_effect)
+        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, settings, min_effect)
 
-    aliases, explained_by = _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect)
+    aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
     table = _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect)
     return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, y,
                      {c.name: c for c in candidates}, skipped, selected, aliases, explained_by)
 
 
-def _confounding(selected, marginal, candidates, y, splits, settings, n_tests, min_effect):
+def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):
     """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in, and vice versa?"""
     by_name = {c.name: c for c in candidates}
     aliases: dict[str, list[str]] = {}
@@ -342,8 +382,8 @@ def _confounding(selected, marginal, candidates, y, splits, settings, n_tests, m
                   and fit.explained_share >= 0.5 * a_share and a_share > 0]
         for rival in sorted(rivals, key=lambda f: -f.explained_share)[:8]:
             b = rival.candidate
-            b_after_a = best_fit(b, _without(a, cause.form.name, y), splits, settings, min_effect)
-            a_after_b = best_fit(a, _without(b, rival.form.name, y), splits, settings, min_effect)
+            b_after_a = best_fit(b, _without(a, cause.form.name, y), settings, min_effect)
+            a_after_b = best_fit(a, _without(b, rival.form.name, y), settings, min_effect)
             b_adds = is_significant(b_after_a, n_tests, settings, min_effect)
             a_adds = is_significant(a_after_b, n_tests, settings, min_effect)
             if not a_adds and not b_adds:

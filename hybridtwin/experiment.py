@@ -39,6 +39,7 @@ class Scenario:
     effect: demo.HiddenEffect
     expected: Expected
     threshold_quantile: float | None = None  # threshold placed at this quantile of the in-support values
+    in_support_std: float | None = None  # linear effects: signed std (mm) of the effect over the in-support rows
     blanks_per_coil: int = 1800
 
 
@@ -48,8 +49,9 @@ def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_
     Magnitudes are drawn above the detection limit: an effect must vary the
     residual by more than the surrogate's own uncertainty (about 1-1.5 mm here)
     to be told from the surrogate's error.
-    Thresholds are drawn as quantiles of the in-support values of their column, so
-    that the transition lies where the method can see it.
+    Thresholds are drawn as quantiles of the in-support values of their column, and a
+    stroke drift by its spread over the in-support parts, so that the effect lies
+    where the method can see it.
     """
     sign = rng.choice([-1.0, 1.0])
     H = demo.HiddenEffect
@@ -62,9 +64,9 @@ def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_
         return Scenario(H("step", column, sign * rng.uniform(5, 8)), Expected(column, ("step", "sigmoid")),
                         rng.uniform(0.3, 0.7))
     if kind == "stroke_drift":
-        drift = sign * rng.uniform(7, 12)  # mm over the production log's strokes
-        return Scenario(H("linear", "stroke_counter", drift / n_production, 250_000.0 + n_production / 2),
-                        Expected("stroke_counter", ("linear",), monotone=True))
+        # drawn as its spread over the parts in support (what the method sees); the log's other strokes carry it further
+        return Scenario(H("linear", "stroke_counter", 0.0, 250_000.0 + n_production / 2),
+                        Expected("stroke_counter", ("linear",), monotone=True), in_support_std=sign * rng.uniform(1.8, 3.0))
     if kind == "coil_offset":
         # coils shorter than a run, so that coil offsets are not confounded with one campaign each
         return Scenario(H("group", "coil_id", rng.uniform(2.5, 4.0)), Expected("coil_id", ("group",)),
@@ -145,6 +147,8 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
     if scenario.threshold_quantile is not None:
         threshold = float(np.quantile(production.loc[inside, effect.column], scenario.threshold_quantile))
         effect = replace(effect, threshold=round(threshold, 4))
+    if scenario.in_support_std is not None:
+        effect = replace(effect, amplitude=scenario.in_support_std / float(np.std(production.loc[inside, effect.column])))
     plant = replace(plant, hidden_effect=effect)
     data = demo.generate(plant)  # same seed: the same parts (less the matched trials), with the effect
     production = data["production"]
