@@ -247,12 +247,39 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
         fits.append(Fit(candidate, full, oof, cv_mse, null_mse, float(score), block_p_value(y, oof, settings.n_blocks),
                         float(np.ptp(fitted)), float(np.std(fitted))))
     fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
+    fits = _named_form_first(fits, min_effect)
     best = fits[0]
     best.alternatives = fits
     return best
 
 
-SHARE_TOLERANCE = 0.05  # a simpler cause may explain at most this much less of the residual variance
+def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:
+    """A few-parameter form ahead of a winning monotone trend that it matches within ``min_effect``.
+
+    The monotone trend takes up every bend in the data, the surrogate's own error
+    along the column among them; a closed form that predicts the same within that
+    error says what the effect is (a step at 0.50 mm) and how it extrapolates.
+    """
+    if not fits or fits[0].form.name != forms.Monotone.name:
+        return fits
+    trend = fits[0].form.predict(fits[0].candidate.values)
+    for index, fit in enumerate(fits[1:], start=1):
+        if (fit.explained_share >= fits[0].explained_share - share_tolerance(fits[0], min_effect)
+                and np.std(fit.form.predict(fit.candidate.values) - trend) < min_effect):
+            return [fit] + fits[:index] + fits[index + 1:]
+    return fits
+
+
+SHARE_TOLERANCE = 0.05  # a simpler cause may explain at least this much less of the residual variance
+
+
+def share_tolerance(fit: Fit, min_effect: float) -> float:
+    """How much less of the residual variance a simpler cause may explain and still count as the same.
+
+    At least what the surrogate's own error can account for: a many-parameter candidate
+    (coil ids that follow the setting campaigns) takes up that error along with the effect.
+    """
+    return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
 
 
 def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) -> Fit:
@@ -273,7 +300,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     fitted = best.form.predict(best.candidate.values)
 
     def predicts_the_same(alt: Fit) -> bool:
-        return (acceptable(alt) and alt.explained_share >= best.explained_share - SHARE_TOLERANCE
+        return (acceptable(alt) and alt.explained_share >= best.explained_share - share_tolerance(best, min_effect)
                 and np.std(alt.form.predict(alt.candidate.values) - fitted) < min_effect)
 
     # the best column counts as simple as its simplest form that predicts the same
