@@ -1,7 +1,8 @@
 """Benchmark: a bank of randomized hidden-effect scenarios through the diagnosis and the extension.
 
-Reports top-1 cause accuracy, false discoveries on null cases, and the
-extension's out-of-support RMSE over the noise floor. Usage:
+Reports top-1 cause accuracy, false discoveries on null cases, the
+extension's out-of-support RMSE over the noise floor, and how many scenarios
+meet what the tests ask (so a bank estimates how often a random test draw fails). Usage:
 
     python benchmarks/diagnosis_bank.py --scenarios 21 --seed 1 --out benchmarks/out/bank.csv
 """
@@ -34,6 +35,7 @@ def main() -> None:
                                           args.n_production, args.jobs)
         row = {k: v for k, v in asdict(outcome).items() if k != "expected"}
         row.update(expected=outcome.expected.cause, correct=outcome.correct, named_or_aliased=outcome.named_or_aliased,
+                   diagnosis_ok=outcome.diagnosis_ok, gain_ok=outcome.gain_ok,
                    seconds_total=time.perf_counter() - start,
                    oos_extended_over_noise=outcome.rmse_oos_extended / outcome.noise)
         rows.append(row)
@@ -46,7 +48,11 @@ def main() -> None:
     effects, nulls = table[table["kind"] != "none"], table[table["kind"] == "none"]
     print(f"\nscenarios: {len(table)}; top-1 cause accuracy on hidden effects: {effects['correct'].mean():.1%} "
           f"({effects['correct'].sum()}/{len(effects)})")
+    print(f"named or reported as cannot-be-told-apart, with the form family: {effects['diagnosis_ok'].sum()}/{len(effects)}")
     print(f"false discoveries on null cases: {(nulls['n_significant'] > 0).sum()}/{len(nulls)}")
+    passed = table["diagnosis_ok"] & table["gain_ok"]
+    print(f"scenarios meeting the tests' criteria (tests/test_diagnosis_scenarios.py): {passed.sum()}/{len(table)}; "
+          "by kind: " + ", ".join(f"{kind} {group.sum()}/{len(group)}" for kind, group in passed.groupby(table["kind"])))
     print("out-of-support RMSE of the extended model over the noise floor: median "
           f"{table['oos_extended_over_noise'].median():.2f}, max {table['oos_extended_over_noise'].max():.2f}")
     print(f"diagnosis time: median {table['seconds_diagnosis'].median():.1f} s, max {table['seconds_diagnosis'].max():.1f} s")
