@@ -37,7 +37,8 @@ def main() -> None:
         row.update(expected=outcome.expected.cause, correct=outcome.correct, named_or_aliased=outcome.named_or_aliased,
                    diagnosis_ok=outcome.diagnosis_ok, gain_ok=outcome.gain_ok,
                    seconds_total=time.perf_counter() - start,
-                   oos_extended_over_noise=outcome.rmse_oos_extended / outcome.noise)
+                   oos_extended_over_noise=outcome.rmse_oos_extended / outcome.noise,
+                   oos_extended_hybrid_over_noise=outcome.rmse_oos_extended_hybrid / outcome.noise)
         rows.append(row)
         print(f"{index:3d} {kind:13s} correct={outcome.correct!s:5s} top={outcome.top_cause}/{outcome.top_form} "
               f"oos hybrid={outcome.rmse_oos_hybrid:.2f} extended={outcome.rmse_oos_extended:.2f} "
@@ -53,8 +54,10 @@ def main() -> None:
     passed = table["diagnosis_ok"] & table["gain_ok"]
     print(f"scenarios meeting the tests' criteria (tests/test_diagnosis_scenarios.py): {passed.sum()}/{len(table)}; "
           "by kind: " + ", ".join(f"{kind} {group.sum()}/{len(group)}" for kind, group in passed.groupby(table["kind"])))
-    print("out-of-support RMSE of the extended model over the noise floor: median "
-          f"{table['oos_extended_over_noise'].median():.2f}, max {table['oos_extended_over_noise'].max():.2f}")
+    for model in ("extended", "extended_hybrid"):
+        ratio = table[f"oos_{model}_over_noise"]
+        print(f"out-of-support RMSE of the {model} model over the noise floor: median {ratio.median():.2f}, "
+              f"max {ratio.max():.2f}, under 1.5 in {(ratio < 1.5).sum()}/{len(ratio)}")
     print(f"diagnosis time: median {table['seconds_diagnosis'].median():.1f} s, max {table['seconds_diagnosis'].max():.1f} s")
 
 

@@ -29,7 +29,7 @@ KINDS = ("temperature", "shim_step", "stroke_drift", "coil_offset", "rp02_slope"
 # kinds whose effect the black-box hybrid cannot carry out of the support (a column it does not
 # see, stronger coils, new setting combinations): there the extension must be well below it
 EXTRAPOLATING = frozenset({"stroke_drift", "rp02_slope", "interaction"})
-WELL_BELOW = 0.8  # extended over hybrid, out of support, against the noise-free truth
+WELL_BELOW = 0.8  # extended hybrid over hybrid, out of support, against the noise-free truth
 NO_WORSE = 1.10  # extended hybrid over hybrid, out of support, where trees carry the effect too
 
 
@@ -110,6 +110,7 @@ class Outcome:
     rmse_oos_extended: float
     rmse_oos_extended_hybrid: float
     rmse_oos_extended_truth: float
+    rmse_oos_extended_hybrid_truth: float
     rmse_oos_hybrid_truth: float
     rmse_oos_known_levels_hybrid: float
     rmse_oos_known_levels_extended: float
@@ -139,10 +140,11 @@ class Outcome:
     @property
     def gain_ok(self) -> bool:
         """What the tests ask of the extension out of the support."""
+        # the extended hybrid is the paper's hybrid with the named cause added: the like-for-like comparison
         if self.kind in EXTRAPOLATING:
             # against the truth: the measured error holds the noise floor, which no model can lower
-            return (self.rmse_oos_extended_truth < WELL_BELOW * self.rmse_oos_hybrid_truth
-                    and self.rmse_oos_extended < self.rmse_oos_hybrid)
+            return (self.rmse_oos_extended_hybrid_truth < WELL_BELOW * self.rmse_oos_hybrid_truth
+                    and self.rmse_oos_extended_hybrid < self.rmse_oos_hybrid)
         if self.kind == "coil_offset":  # an offset is known only for coils seen inside the support
             return self.rmse_oos_known_levels_extended_hybrid < NO_WORSE * self.rmse_oos_known_levels_hybrid
         # a saturating or step change whose plateaus the support already shows, or no effect:
@@ -212,7 +214,7 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
                    int(result.table["significant"].sum()), int(inside.sum()),
                    rmse(measured[outside], hybrid[outside]), rmse(measured[outside], extended[outside]),
                    rmse(measured[outside], extended_hybrid[outside]), rmse(truth[outside], extended[outside]),
-                   rmse(truth[outside], hybrid[outside]),
+                   rmse(truth[outside], extended_hybrid[outside]), rmse(truth[outside], hybrid[outside]),
                    rmse(measured[known], hybrid[known]), rmse(measured[known], extended[known]),
                    rmse(measured[known], extended_hybrid[known]),
                    plant.noise_mm, seconds, top_monotone, tuple(result.aliases.get(str(top["cause"]), ())))

@@ -32,6 +32,7 @@ def test_extension_gains_out_of_support(outcome):
     assert outcome.gain_ok, (
         f"{_where(outcome)}: out of support hybrid {outcome.rmse_oos_hybrid:.2f}, extended "
         f"{outcome.rmse_oos_extended:.2f}, extended hybrid {outcome.rmse_oos_extended_hybrid:.2f} mm; against the truth "
-        f"hybrid {outcome.rmse_oos_hybrid_truth:.2f}, extended {outcome.rmse_oos_extended_truth:.2f} mm; on coils seen in "
+        f"hybrid {outcome.rmse_oos_hybrid_truth:.2f}, extended {outcome.rmse_oos_extended_truth:.2f}, extended hybrid "
+        f"{outcome.rmse_oos_extended_hybrid_truth:.2f} mm; on coils seen in "
         f"support hybrid {outcome.rmse_oos_known_levels_hybrid:.2f}, extended hybrid "
         f"{outcome.rmse_oos_known_levels_extended_hybrid:.2f} mm")
