@@ -276,10 +276,16 @@ SHARE_TOLERANCE = 0.05  # a simpler cause may explain at least this much less of
 def share_tolerance(fit: Fit, min_effect: float) -> float:
     """How much less of the residual variance a simpler cause may explain and still count as the same.
 
-    At least what the surrogate's own error can account for: a many-parameter candidate
-    (coil ids that follow the setting campaigns) takes up that error along with the effect.
+    A many-level fit (coil offsets that follow the setting campaigns, a monotone trend)
+    takes up the surrogate's own error along with the effect, so against it the margin is
+    what that error can account for; a closed form of a few parameters cannot.
     """
+    if fit.form.n_params <= MAX_CLOSED_FORM_PARAMS:
+        return SHARE_TOLERANCE
     return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
+
+
+MAX_CLOSED_FORM_PARAMS = 3  # linear, quadratic, step, sigmoid, product
 
 
 def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) -> Fit:
