@@ -43,7 +43,7 @@ class Candidate:
         if self.kind == "group":
             return ("group",)
         if self.kind == "interaction":
-            return ("product",)
+            return ("product", "additive")
         if len(np.unique(self.values)) <= 2:
             return ("step",)
         return tuple(cls.name for cls in forms.NUMERIC_FORMS)
@@ -328,8 +328,10 @@ def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: floa
 
 
 def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float) -> bool:
+    # a pair counts as an interaction only where the product beats its two main effects;
+    # otherwise its columns speak for themselves as candidates of their own
     return (fit.p_value < settings.alpha / max(1, n_tests) and fit.score < 0
-            and fit.effect_std > min_effect)
+            and fit.effect_std > min_effect and fit.form.name != forms.Additive.name)
 
 
 def backfit(selected: list[Candidate], form_names: list[str], y, passes: int = 4) -> list[forms.Form]:
@@ -377,7 +379,8 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     conditional: dict[str, Fit] = dict(marginal)
     remaining = y
     while len(selected) < settings.max_causes:
-        pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}]
+        pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}
+                and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
         if not pool:
             break
         best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect,

@@ -12,7 +12,8 @@ from scipy.optimize import least_squares
 from sklearn.isotonic import IsotonicRegression
 
 FAMILIES = {"linear": "linear", "quadratic": "polynomial", "sigmoid": "saturating", "step": "step",
-            "monotone": "monotone trend", "group": "group offsets", "product": "interaction"}
+            "monotone": "monotone trend", "group": "group offsets", "product": "interaction",
+            "additive": "additive"}
 
 
 def _logistic(z):
@@ -233,8 +234,25 @@ class Product(Form):
         return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
 
 
+class Additive(Product):
+    """The product's two main effects without the a*b term: c0 + c1*a + c2*b.
+
+    The yardstick of an interaction: a product that does not beat it is two separate effects.
+    """
+
+    name, n_params = "additive", 2
+
+    def _design(self, a, b):
+        return super()._design(a, b)[:, :3]
+
+    def describe(self, column, unit="mm"):
+        first, second = column.split("*")
+        return (f"additive: {self.coefficients[1]:+.4g} {unit} per unit of {first}, "
+                f"{self.coefficients[2]:+.4g} {unit} per unit of {second}")
+
+
 NUMERIC_FORMS = (Linear, Quadratic, Sigmoid, Step, Monotone)
-FORMS = {cls.name: cls for cls in (*NUMERIC_FORMS, Group, Product)}
+FORMS = {cls.name: cls for cls in (*NUMERIC_FORMS, Group, Product, Additive)}
 
 
 def form_from_dict(data: dict) -> Form:
