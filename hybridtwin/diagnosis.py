@@ -466,6 +466,8 @@ def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_te
             note = f"explained by {explained_by[name]}: adds nothing once it is in"
         elif not significant and any(set(fit.candidate.columns) & set(s.candidate.columns) for s in selected):
             note = "a variant of a chosen cause's column: adds nothing beyond it"
+        elif form.name == forms.Additive.name:
+            note = "no interaction: the product does not beat the two main effects"
         rows.append({"cause": name, "kind": fit.candidate.kind, "form": form.name,
                      "family": forms.FAMILIES[form.name], "n_params": int(form.n_params),
                      "explained_share": fit.explained_share, "conditional_share": conditional_share,
