@@ -262,15 +262,20 @@ def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:
     """
     if not fits or fits[0].form.name != forms.Monotone.name:
         return fits
-    trend = fits[0].form.predict(fits[0].candidate.values)
     for index, fit in enumerate(fits[1:], start=1):
-        if (fit.explained_share >= fits[0].explained_share - share_tolerance(fits[0], min_effect)
-                and np.std(fit.form.predict(fit.candidate.values) - trend) < min_effect):
+        if predicts_the_same(fit, fits[0], min_effect):
             return [fit] + fits[:index] + fits[index + 1:]
     return fits
 
 
-SHARE_TOLERANCE = 0.05  # a simpler cause may explain at least this much less of the residual variance
+def predicts_the_same(fit: Fit, reference: Fit, min_effect: float) -> bool:
+    """Whether ``fit`` explains about as much as ``reference`` and predicts it within ``min_effect`` (std)."""
+    difference = fit.form.predict(fit.candidate.values) - reference.form.predict(reference.candidate.values)
+    return (fit.explained_share >= reference.explained_share - share_tolerance(reference, min_effect)
+            and float(np.std(difference)) < min_effect)
+
+
+SHARE_TOLERANCE = 0.05  # the least margin by which a simpler cause may explain less of the residual variance
 
 
 def share_tolerance(fit: Fit, min_effect: float) -> float:
@@ -303,16 +308,13 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     itself, it stands for whatever changes with it (tool wear in strokes, a warming
     die), so a logged quantity that predicts the same is named instead.
     """
-    fitted = best.form.predict(best.candidate.values)
-
-    def predicts_the_same(alt: Fit) -> bool:
-        return (acceptable(alt) and alt.explained_share >= best.explained_share - share_tolerance(best, min_effect)
-                and np.std(alt.form.predict(alt.candidate.values) - fitted) < min_effect)
+    def equivalent(alt: Fit) -> bool:
+        return acceptable(alt) and predicts_the_same(alt, best, min_effect)
 
     # the best column counts as simple as its simplest form that predicts the same
-    own = min([_complexity(best)] + [_complexity(alt) for alt in best.alternatives if predicts_the_same(alt)])
+    own = min([_complexity(best)] + [_complexity(alt) for alt in best.alternatives if equivalent(alt)])
     simpler = [alt for fit in pool if fit.candidate.kind != "interaction" and fit.candidate.name != best.candidate.name
-               for alt in fit.alternatives if _complexity(alt) < own and predicts_the_same(alt)]
+               for alt in fit.alternatives if _complexity(alt) < own and equivalent(alt)]
     return min(simpler, key=lambda fit: (_complexity(fit), fit.score, fit.candidate.name)) if simpler else best
 
 

@@ -490,3 +490,35 @@ def test_sensitivity_table_by_hand():
         assert (got["in_support"], got["out_of_support"], got["all"]) == pytest.approx((inside, outside, everywhere)), column
     assert table.loc["out_of_support", "rmse_filtered_train_gated"] == table.loc["out_of_support", "rmse_surrogate_only"]
     assert table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
+
+
+# --- diagnosis internals ------------------------------------------------------------------------------------------
+
+def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
+    from hybridtwin.diagnosis import Candidate, Settings, value_folds
+
+    rng = np.random.default_rng(0)
+    levels = rng.permutation(np.repeat(np.linspace(0.4, 0.7, 40), 50))  # 40 campaign settings, 50 parts each
+    settings = Settings(folds=5, seed=3)
+    splits = value_folds(Candidate("shim", "input", levels, ("shim",)), settings)
+    assert sorted(np.concatenate([test for _, test in splits]).tolist()) == list(range(len(levels)))
+    for train, test in splits:
+        assert not set(levels[train]) & set(levels[test]), "a setting level on both sides of a fold"
+        assert len(np.unique(levels[test])) == 8, "each fold holds out four bins of two levels each"
+    ids = np.array([f"K{i % 30}" for i in range(len(levels))])
+    shuffled = value_folds(Candidate("coil", "group", ids, ("coil",)), settings)
+    assert all(set(ids[train]) >= set(ids[test]) for train, test in shuffled), "group levels are seen in training"
+
+
+@pytest.mark.parametrize("with_product, expected", [(False, "additive"), (True, "product")])
+def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(with_product, expected):
+    from hybridtwin import diagnosis
+    from hybridtwin.diagnosis import Candidate, Settings, best_fit, is_significant
+
+    rng = np.random.default_rng(1)
+    a, b = rng.uniform(-1, 1, (2, 3000))
+    y = 2.0 * a + 3.0 * b + (4.0 * a * b if with_product else 0.0) + rng.normal(0, 0.3, 3000)
+    fit = best_fit(Candidate("a*b", "interaction", np.column_stack([a, b]), ("a", "b")), y - y.mean(), Settings())
+    assert fit.form.name == expected
+    assert is_significant(fit, 1, Settings(), min_effect=0.1) == with_product
+    assert diagnosis.forms.FAMILIES[fit.form.name] == ("interaction" if with_product else "additive")
