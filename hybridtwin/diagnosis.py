@@ -304,7 +304,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     many-parameter candidates also soak up the surrogate's own error, so they
     can edge out the simple cause that carries the effect.
 
-    Elapsed time counts as one parameter more than it has: time causes nothing by
+    Elapsed time counts half a parameter more than it has: time causes nothing by
     itself, it stands for whatever changes with it (tool wear in strokes, a warming
     die), so a logged quantity that predicts the same is named instead.
     """
