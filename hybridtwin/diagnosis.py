@@ -22,9 +22,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
-from scipy import stats
 
 from . import forms
+from .forms import fit_form
+from .metrics import block_p_value
 from .validation import folds as kfolds
 
 log = logging.getLogger(__name__)
@@ -105,6 +106,7 @@ class Diagnosis:
     selected: list[Fit] = field(default_factory=list)
     aliases: dict[str, list[str]] = field(default_factory=dict)
     explained_by: dict[str, str] = field(default_factory=dict)
+    proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------- candidates
@@ -176,26 +178,11 @@ def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -
 
 # ---------------------------------------------------------------- fitting
 
-def fit_form(name: str, x, y) -> forms.Form:
-    return forms.FORMS[name]().fit(x, y)
-
-
 def held_out(name: str, x, y, splits) -> np.ndarray:
     oof = np.empty(len(y))
     for train, test in splits:
         oof[test] = fit_form(name, x[train], y[train]).predict(x[test])
     return oof
-
-
-def block_p_value(y, oof, n_blocks: int) -> float:
-    """One-sided p-value that the held-out prediction beats zero, from block means of the gain."""
-    gain = y**2 - (y - oof) ** 2
-    blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))  # consecutive rows
-    means = np.array([block.mean() for block in blocks])
-    se = means.std(ddof=1) / np.sqrt(len(means))
-    if se == 0:
-        return 0.0 if means.mean() > 0 else 1.0
-    return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
 
 
 BINS_PER_FOLD = 4
@@ -311,16 +298,69 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     def equivalent(alt: Fit) -> bool:
         return acceptable(alt) and predicts_the_same(alt, best, min_effect)
 
-    # the best column counts as simple as its simplest form that predicts the same
-    own = min([_complexity(best)] + [_complexity(alt) for alt in best.alternatives if equivalent(alt)])
-    simpler = [alt for fit in pool if fit.candidate.kind != "interaction" and fit.candidate.name != best.candidate.name
-               for alt in fit.alternatives if _complexity(alt) < own and equivalent(alt)]
-    return min(simpler, key=lambda fit: (_complexity(fit), fit.score, fit.candidate.name)) if simpler else best
+    def simplest(fit: Fit) -> float:
+        """A column counts as simple as its simplest form that predicts what the best one predicts."""
+        return min((_complexity(alt) for alt in fit.alternatives or [fit] if equivalent(alt)), default=np.inf)
+
+    own = min(_complexity(best), simplest(best))
+    rivals = []
+    for fit in pool:
+        if fit.candidate.kind == "interaction" or fit.candidate.name == best.candidate.name:
+            continue
+        complexity = simplest(fit)
+        if complexity < own:
+            # the column's own choice of form (held-out score), among its forms that predict the same
+            form = next(alt for alt in fit.alternatives or [fit] if equivalent(alt))
+            rivals.append((complexity, form.score, fit.candidate.name, form))
+    return min(rivals, key=lambda rival: rival[:3])[3] if rivals else best
+
+
+PROXY_SHARE = 0.5  # an id stands for a quantity that accounts for at least this share of its level differences
+
+
+def between_level_ss(labels, values) -> float:
+    """Count-weighted sum of squares of the level means of ``values`` around their overall mean."""
+    codes = np.unique(np.asarray(labels), return_inverse=True)[1]
+    values = np.asarray(values, float)
+    counts = np.bincount(codes)
+    means = np.bincount(codes, weights=values) / counts
+    return float(np.sum(counts * (means - values.mean()) ** 2))
+
+
+def proxy_share(proxy: Fit, rival: Fit, y) -> float:
+    """Share of the differences between an id's levels (in ``y``) that ``rival``'s term accounts for."""
+    before = between_level_ss(proxy.candidate.values, y)
+    if before <= 0:
+        return 0.0
+    after = between_level_ss(proxy.candidate.values, y - rival.form.predict(rival.candidate.values))
+    return 1.0 - after / before
+
+
+def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, float]:
+    """An id (coil, lot, shift) is a proxy, like elapsed time: it stands for whatever changes with it.
+
+    Group offsets recall each level from its own parts, so an id that carries a die
+    temperature, a setting and a material at once out-scores each of them. Both kinds are
+    put on the same footing by asking what the id's level differences are: when a
+    significant candidate that is not an id accounts for most of them
+    (:data:`PROXY_SHARE`), that candidate is named, the best-scoring such one. The id
+    stays a candidate for the next step, where it is chosen only if its remainder,
+    given the named cause, is significant. Returns the cause and the share it accounts for.
+    """
+    if best.candidate.kind != "group":
+        return best, 0.0
+    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool
+              if fit.candidate.kind != "group" and acceptable(fit)]
+    rivals = [(fit, share) for fit, share in rivals if share >= PROXY_SHARE]
+    if not rivals:
+        return best, 0.0
+    return min(rivals, key=lambda rival: (rival[0].score, rival[0].candidate.name))
 
 
 def _complexity(fit: Fit) -> float:
-    """Parameters, with elapsed time ranked behind a logged quantity of as many parameters."""
-    return fit.form.n_params + (0.5 if fit.candidate.kind == "time" else 0.0)
+    """Parameters; elapsed time ranks behind a logged quantity of as many parameters, and a product of
+    two columns behind one column (both stand for more than a single quantity)."""
+    return fit.form.n_params + (0.5 if fit.candidate.kind in ("time", "interaction") else 0.0)
 
 
 def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
@@ -334,19 +374,6 @@ def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float
     # otherwise its columns speak for themselves as candidates of their own
     return (fit.p_value < settings.alpha / max(1, n_tests) and fit.score < 0
             and fit.effect_std > min_effect and fit.form.name != forms.Additive.name)
-
-
-def backfit(selected: list[Candidate], form_names: list[str], y, passes: int = 4) -> list[forms.Form]:
-    """Joint fit of several additive terms by backfitting."""
-    fitted = [np.zeros_like(y) for _ in selected]
-    models: list[forms.Form] = [None] * len(selected)
-    for _ in range(passes if len(selected) > 1 else 1):
-        for j, (candidate, name) in enumerate(zip(selected, form_names)):
-            partial = y - sum(fitted[k] for k in range(len(selected)) if k != j)
-            models[j] = fit_form(name, candidate.values, partial)
-            fitted[j] = models[j].predict(candidate.values)
-            fitted[j] -= fitted[j].mean()
-    return models
 
 
 # ---------------------------------------------------------------- diagnosis
@@ -378,6 +405,7 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
 
     # forward selection, each step conditional on the causes already chosen
     selected: list[Fit] = []
+    proxies: dict[str, tuple[str, float]] = {}  # id -> the cause named for it, and the share of its level differences
     conditional: dict[str, Fit] = dict(marginal)
     remaining = y
     while len(selected) < settings.max_causes:
@@ -385,12 +413,18 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
                 and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
         if not pool:
             break
-        best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect,
-                              lambda fit: is_significant(fit, n_tests, settings, min_effect))
+        def acceptable(fit: Fit) -> bool:
+            return is_significant(fit, n_tests, settings, min_effect)
+
+        best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect, acceptable)
+        named, share = physical_cause(best, pool, remaining, acceptable)
+        if named is not best:
+            proxies[best.candidate.name] = (named.candidate.name, share)
+            best = prefer_simpler(named, pool, min_effect, acceptable)
         if not is_significant(best, n_tests, settings, min_effect):
             break
         selected.append(best)
-        models = backfit([s.candidate for s in selected], [s.form.name for s in selected], y)
+        models, _ = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
         for fit, model in zip(selected, models):
             fit.form = model
         remaining = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
@@ -399,9 +433,10 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, settings, min_effect)
 
     aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
-    table = _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect)
+    table = _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
+                   min_effect)
     return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, y,
-                     {c.name: c for c in candidates}, skipped, selected, aliases, explained_by)
+                     {c.name: c for c in candidates}, skipped, selected, aliases, explained_by, proxies)
 
 
 def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):
@@ -437,7 +472,8 @@ def _without(candidate: Candidate, form_name: str, y):
     return remaining - remaining.mean()
 
 
-def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_tests, settings, min_effect) -> pd.DataFrame:
+def _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
+           min_effect) -> pd.DataFrame:
     chosen = [s.candidate.name for s in selected]
     rows = []
     for name, fit in marginal.items():
@@ -460,7 +496,10 @@ def _table(marginal, conditional, selected, aliases, explained_by, skipped, n_te
             effect_range, effect_std = fit.effect_range, fit.effect_std
         alias_of = [cause for cause, names in aliases.items() if name in names]
         note = ""
-        if name in aliases and aliases[name]:
+        if name in proxies and name not in chosen:
+            cause, share = proxies[name]
+            note = f"an id that stands for {cause}: it accounts for {share:.0%} of the differences between its levels"
+        elif name in aliases and aliases[name]:
             note = "cannot be told apart from " + ", ".join(aliases[name]) + " in this data"
         elif alias_of:
             note = f"cannot be told apart from {alias_of[0]} in this data"
@@ -497,6 +536,7 @@ def summary_dict(result: Diagnosis) -> dict:
                       "explained_share": f.explained_share, "effect_range": f.effect_range,
                       "effect_std": f.effect_std, "p_value": f.p_value} for f in result.selected],
         "aliases": result.aliases, "explained_by": result.explained_by, "skipped": result.skipped,
+        "proxies": {name: {"cause": cause, "share": share} for name, (cause, share) in result.proxies.items()},
     }
 
 

@@ -51,17 +51,13 @@ class DiscrepancyExtension(RegressorMixin, BaseEstimator):
         self.offset_ = float(residual.mean())
         causes = self._causes()
         values = [cause_values(frame, c.kind, c.columns, c.origin) for c in causes]
-        fitted = [np.zeros_like(residual) for _ in causes]
-        self.forms_ = [None] * len(causes)
-        self.means_ = [0.0] * len(causes)
         target = residual - self.offset_
-        for _ in range(4 if len(causes) > 1 else 1):
-            for j, cause in enumerate(causes):
-                partial = target - sum(fitted[k] for k in range(len(causes)) if k != j)
-                self.forms_[j] = forms.FORMS[cause.form]().fit(values[j], partial)
-                raw = self.forms_[j].predict(values[j])
-                self.means_[j] = float(raw.mean())
-                fitted[j] = raw - self.means_[j]
+        self.forms_, self.means_ = forms.backfit(values, [c.form for c in causes], target)
+        for j, (form, x) in enumerate(zip(self.forms_, values)):
+            # how far each term is trusted beyond its in-support values: judged on its partial residual
+            others = sum((f.predict(v) - m for k, (f, v, m) in enumerate(zip(self.forms_, values, self.means_))
+                          if k != j), np.zeros_like(target))
+            forms.set_trusted_range(form, x, target - others)
         return self
 
     def terms(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:

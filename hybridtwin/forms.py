@@ -21,8 +21,20 @@ def _logistic(z):
 
 
 class Form:
+    """A fitted term. Beyond its trusted range (``trust_low``..``trust_high``, set by
+    :func:`set_trusted_range`) it is held at its value at the range's edge."""
+
     name = ""
     n_params = 0
+    trust_low = None
+    trust_high = None
+
+    def predict(self, x):
+        x = np.asarray(x) if self.trust_low is None else np.clip(np.asarray(x, float), self.trust_low, self.trust_high)
+        return self._predict(x)
+
+    def _predict(self, x):
+        raise NotImplementedError
 
     def to_dict(self) -> dict:
         return {"form": self.name, **{k: _plain(v) for k, v in vars(self).items()}}
@@ -48,7 +60,7 @@ class Linear(Form):
         self.slope, self.intercept = np.polyfit(x, y, 1)
         return self
 
-    def predict(self, x):
+    def _predict(self, x):
         return self.intercept + self.slope * np.asarray(x, float)
 
     def describe(self, column, unit="mm"):
@@ -67,7 +79,7 @@ class Quadratic(Form):
         self.coefficients = np.polyfit(x - self.center, y, 2)
         return self
 
-    def predict(self, x):
+    def _predict(self, x):
         clipped = np.clip(np.asarray(x, float), self.low, self.high)
         return np.polyval(self.coefficients, clipped - self.center)
 
@@ -119,7 +131,7 @@ class Sigmoid(Form):
         self.threshold, self.width = float(solution.x[2] * scale), float(np.exp(solution.x[3]) * scale)
         return self
 
-    def predict(self, x):
+    def _predict(self, x):
         return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
 
     def describe(self, column, unit="mm"):
@@ -151,7 +163,7 @@ class Step(Form):
         self.jump = float(right_sum[i] / (n - left_n[i]) - self.low)
         return self
 
-    def predict(self, x):
+    def _predict(self, x):
         return self.low + self.jump * (np.asarray(x, float) >= self.threshold)
 
     def describe(self, column, unit="mm"):
@@ -164,7 +176,9 @@ class Monotone(Form):
     name = "monotone"
 
     def fit(self, x, y):
-        model = IsotonicRegression(increasing="auto", out_of_bounds="clip").fit(x, y)
+        # the direction with the smaller squared error (sklearn's "auto" guesses it from a Spearman test)
+        fits = [IsotonicRegression(increasing=up, out_of_bounds="clip").fit(x, y) for up in (True, False)]
+        model = min(fits, key=lambda fit: float(np.sum((np.asarray(y, float) - fit.predict(x)) ** 2)))
         self.knots_x = np.asarray(model.X_thresholds_, float)
         self.knots_y = np.asarray(model.y_thresholds_, float)
         return self
@@ -174,7 +188,7 @@ class Monotone(Form):
         # each jump has a place and a height, and the direction is chosen from the data
         return 2 * max(1, len(np.unique(np.round(self.knots_y, 12))) - 1) + 1
 
-    def predict(self, x):
+    def _predict(self, x):
         return np.interp(np.asarray(x, float), self.knots_x, self.knots_y)
 
     def describe(self, column, unit="mm"):
@@ -200,7 +214,7 @@ class Group(Form):
     def n_params(self):
         return max(1, len(self.offsets) - 1)
 
-    def predict(self, x):
+    def _predict(self, x):
         labels = np.asarray(x).astype(str)
         levels, codes = np.unique(labels, return_inverse=True)
         values = np.array([self.offsets.get(level, self.overall) for level in levels.tolist()], float)
@@ -226,7 +240,7 @@ class Product(Form):
         a, b = a - self.center[0], b - self.center[1]
         return np.column_stack([np.ones_like(a), a, b, a * b])
 
-    def predict(self, x):
+    def _predict(self, x):
         a, b = np.asarray(x, float).T
         return self._design(a, b) @ np.asarray(self.coefficients, float)
 
@@ -261,4 +275,75 @@ def form_from_dict(data: dict) -> Form:
         if key == "form":
             continue
         setattr(form, key, np.asarray(value, float) if isinstance(value, list) else value)
+    return form
+
+
+def fit_form(name: str, x, y) -> Form:
+    return FORMS[name]().fit(x, y)
+
+
+def backfit(values: list, form_names: list[str], y, passes: int = 20) -> tuple[list[Form], list[float]]:
+    """Joint least-squares fit of several additive terms by backfitting.
+
+    Returns the fitted forms and each term's mean over the rows, so that
+    ``form.predict(x) - mean`` is the term's centred contribution.
+    """
+    y = np.asarray(y, float)
+    fitted = [np.zeros_like(y) for _ in values]
+    models: list[Form] = [None] * len(values)
+    means = [0.0] * len(values)
+    for _ in range(passes if len(values) > 1 else 1):
+        for j, (x, name) in enumerate(zip(values, form_names)):
+            partial = y - sum((fitted[k] for k in range(len(values)) if k != j), np.zeros_like(y))
+            models[j] = fit_form(name, x, partial)
+            raw = models[j].predict(x)
+            means[j] = float(raw.mean())
+            fitted[j] = raw - means[j]
+    return models, means
+
+
+# How far a term is trusted beyond the values it was fitted on: a form is fitted on the inner
+# quantiles of its cause and scored on the outer ones, extrapolated against held constant.
+EDGE_QUANTILES = (0.1, 0.9)
+EDGE_ALPHA = 0.01  # one-sided block test that extrapolating beats holding constant on the edges
+MIN_EDGE_ROWS = 50
+
+
+def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
+    """Whether the data show the form's trend continuing beyond its inner stretch.
+
+    The form is fitted on the rows whose cause lies within the inner quantiles
+    (:data:`EDGE_QUANTILES`, per column for a pair) and predicts the other rows twice:
+    extrapolated, and held at the inner stretch's edge. It extrapolates only where the
+    extrapolated prediction is better, by a block-wise one-sided test over consecutive
+    rows. Group offsets never extrapolate (an unseen level gets the mean).
+    """
+    from .metrics import block_p_value
+
+    if name == Group.name:
+        return False
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    columns = x.reshape(len(x), -1)
+    low, high = np.quantile(columns, EDGE_QUANTILES, axis=0)
+    inner = np.all((columns >= low) & (columns <= high), axis=1)
+    if inner.sum() < MIN_EDGE_ROWS or (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
+        return False
+    model = fit_form(name, x[inner], y[inner])
+    outer = x[~inner]
+    extrapolated = model.predict(outer)
+    held = model.predict(np.clip(outer, low, high) if x.ndim > 1 else np.clip(outer, low[0], high[0]))
+    return block_p_value(y[~inner] - held, extrapolated - held, n_blocks) < EDGE_ALPHA
+
+
+def set_trusted_range(form: Form, x, y) -> Form:
+    """Hold ``form`` constant beyond the values of ``x`` it was fitted on, unless the edges show its trend
+    continuing (:func:`extrapolates`); then trust it as far again beyond each end as the data span."""
+    if form.name == Group.name:
+        return form
+    x = np.asarray(x, float)
+    low, high = np.min(x, axis=0), np.max(x, axis=0)
+    if extrapolates(form.name, x, y):
+        low, high = low - (high - low), high + (high - low)
+    form.trust_low = low.tolist() if np.ndim(low) else float(low)
+    form.trust_high = high.tolist() if np.ndim(high) else float(high)
     return form

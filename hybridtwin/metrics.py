@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy import stats
 
 
 def rmse(y_true, y_pred) -> float:
@@ -33,3 +34,19 @@ METRICS = {"rmse": rmse, "mae": mae, "bias": bias, "r2": r2}
 
 def scores(y_true, y_pred, names=("r2", "rmse", "mae", "bias")) -> dict[str, float]:
     return {name: METRICS[name](y_true, y_pred) for name in names}
+
+
+def block_p_value(y, prediction, n_blocks: int) -> float:
+    """One-sided p-value that ``prediction`` beats predicting zero, from means over blocks of consecutive rows.
+
+    Gains of neighbouring parts are correlated (drift, campaigns); block means are nearly
+    independent, so a t-test over them does not overstate the evidence as one over rows would.
+    """
+    y, prediction = np.asarray(y, float), np.asarray(prediction, float)
+    gain = y**2 - (y - prediction) ** 2
+    blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))
+    means = np.array([block.mean() for block in blocks])
+    se = means.std(ddof=1) / np.sqrt(len(means))
+    if se == 0:
+        return 0.0 if means.mean() > 0 else 1.0
+    return float(stats.t.sf(means.mean() / se, df=len(means) - 1))

@@ -46,6 +46,10 @@ def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, 
             notes.append(f"- `{cause}` cannot be told apart from {', '.join(f'`{a}`' for a in aliases)} in this "
                          "data: each explains the residual as well as the other once either is in. More varied "
                          "data (or a designed trial) is needed to decide.")
+    for proxy, named in summary.get("proxies", {}).items():
+        notes.append(f"- `{proxy}` is an id: it stands for whatever changes with it. `{named['cause']}` accounts "
+                     f"for {named['share']:.0%} of the differences between its levels, so `{named['cause']}` is "
+                     "named as the cause.")
     for other, cause in summary["explained_by"].items():
         notes.append(f"- `{other}` looks related on its own but adds nothing once `{cause}` is in (a correlated "
                      "neighbour, not the cause).")

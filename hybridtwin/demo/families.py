@@ -1,0 +1,307 @@
+"""Plant families the demo generator does not draw: other names, rhythms, confounding and numbers of causes.
+
+The demo plant (:mod:`.plant`) runs long shifts with two setting campaigns each and coils of
+~1,800 blanks. A method tuned on it can learn its habits. These plants are drawn another
+way, with every habit drawn at random per plant:
+
+* column names from several vocabularies (English, German, abbreviations), timestamps
+  in ISO or day-first format, coil ids in several styles;
+* three 8-hour shifts with breaks and idle days; a die that warms over each shift;
+* coils of a few hundred blanks, each with its own material and a logged lubricant
+  film (a per-coil property with a mild effect of its own);
+* shims set in discrete steps and cushion forces re-adjusted in campaigns that are
+  either shorter than a coil or span several coils (and then change at coil changes),
+  so that a coil id carries the die temperature, the setting and the material at once.
+
+Each family hides a different discrepancy (:data:`FAMILIES`); what the diagnosis must
+report is returned with the data (:class:`Expected`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy.stats import qmc
+
+from . import plant as demo
+
+# canonical (demo) input name -> names a plant might use for it
+INPUT_VOCABULARY = {
+    "thickness_mm": ("thickness_mm", "t0", "blechdicke", "gauge_mm"),
+    "rm_mpa": ("rm_mpa", "Rm", "uts_mpa", "zugfestigkeit"),
+    "rp02_mpa": ("rp02_mpa", "Rp02", "ys_mpa", "dehngrenze"),
+    "r_n": ("r_n", "rbar", "r_value", "anisotropie"),
+    "die_temp_c": ("die_temp_c", "T_die", "werkzeugtemp", "die_temperature"),
+    "ambient_temp_c": ("ambient_temp_c", "T_amb", "hallentemp", "air_temp"),
+    "shim20_mm": ("shim20_mm", "shim_20", "S20", "distanz20"),
+    "shim21_mm": ("shim21_mm", "shim_21", "S21", "distanz21"),
+    "cushion_c1_kn": ("cushion_c1_kn", "C1", "kissen1", "pin_force_1"),
+    "cushion_c2_kn": ("cushion_c2_kn", "C2", "kissen2", "pin_force_2"),
+    "cushion_c3_kn": ("cushion_c3_kn", "C3", "kissen3", "pin_force_3"),
+    "cushion_c4_kn": ("cushion_c4_kn", "C4", "kissen4", "pin_force_4"),
+}
+LOG_VOCABULARY = {
+    "target": ("draw_in_mm", "einzug", "drawin_crit", "DI"),
+    "time": ("timestamp", "zeitstempel", "datetime", "time"),
+    "strokes": ("stroke_counter", "hubzaehler", "press_strokes", "die_hits"),
+    "coil": ("coil_id", "bund_nr", "coil", "lot"),
+    "shift": ("shift", "schicht", "crew", "team"),
+    "lubricant": ("oil_film_g_m2", "beoelung", "lube_gm2", "oil"),
+    "copy": ("die_temp_ir", "T_die_2", "werkzeugtemp_ir", "die_temperature_b"),
+}
+
+FAMILIES = ("temperature", "shim_step", "coil_property", "coil_itself", "two_causes", "time_drift",
+            "near_copy", "null")
+
+
+@dataclass(frozen=True)
+class Expected:
+    """What the diagnosis must report: a cause (or None: nothing significant) and its form family.
+
+    ``also``: further causes that must be among the chosen ones (two-cause plants);
+    ``alias``: a column the cause must be reported as not told apart from.
+    """
+
+    cause: str | None
+    forms: tuple[str, ...] = ()
+    monotone: bool = False  # any form whose fitted term is monotone over the data (a trend)
+    also: tuple["Expected", ...] = ()
+    alias: str | None = None
+
+
+@dataclass
+class PlantCase:
+    """A generated plant, ready for the method: data, names, the noise-free truth and the right answer."""
+
+    family: str
+    description: str
+    doe: pd.DataFrame
+    production: pd.DataFrame
+    truth: np.ndarray
+    inputs: list[str]
+    target: str
+    expected: Expected
+    noise: float
+    confounding: str = ""
+    names: dict[str, str] = field(default_factory=dict)
+
+
+DOE_LOW = np.array([v[0] for v in demo.INPUTS.values()])
+DOE_HIGH = np.array([v[1] for v in demo.INPUTS.values()])
+
+
+def _names(rng: np.random.Generator) -> dict[str, str]:
+    """Canonical name -> this plant's column name."""
+    names = {key: str(rng.choice(options)) for key, options in {**INPUT_VOCABULARY, **LOG_VOCABULARY}.items()}
+    return names
+
+
+def _timeline(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Elapsed seconds per part, the shift each part belongs to, seconds since its shift started, and strokes.
+
+    Three 8-hour shifts with a break at each change; after every few shifts the line
+    stands idle for half a day to a few days; set-up strokes between shifts.
+    """
+    spm = rng.uniform(10, 18)
+    cycle = 60.0 / spm * (1.0 + rng.exponential(0.05, n))
+    per_shift = int(8 * 3600 / cycle.mean() * rng.uniform(0.7, 0.95))
+    shift_of = np.arange(n) // per_shift
+    n_shifts = shift_of[-1] + 1
+    gaps = rng.uniform(0.25, 1.0, n_shifts) * 3600.0
+    idle = rng.random(n_shifts) < 1.0 / rng.uniform(3, 6)
+    gaps[idle] += rng.uniform(12, 72, idle.sum()) * 3600.0
+    gaps[0] = 0.0
+    in_shift = np.concatenate([np.cumsum(cycle[shift_of == s]) - cycle[shift_of == s][0] for s in range(n_shifts)])
+    shift_length = np.array([in_shift[shift_of == s].max() for s in range(n_shifts)])
+    shift_start = np.cumsum(np.r_[0.0, shift_length[:-1]] + gaps)
+    elapsed = shift_start[shift_of] + in_shift
+    strokes = 100_000 + np.arange(n) + np.cumsum(rng.integers(5, 200, n_shifts))[shift_of]
+    return elapsed, shift_of, in_shift, strokes
+
+
+def _coils(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Coil index per part: coils of a few hundred blanks each."""
+    lengths = rng.integers(150, 600, n // 150 + 2)
+    return np.repeat(np.arange(len(lengths)), lengths)[:n]
+
+
+def _campaigns(n: int, coil: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
+    """Campaign index per part: either shorter than a coil, or spanning several coils (changed at coil changes)."""
+    if rng.random() < 0.5:
+        lengths = rng.integers(60, 250, n // 60 + 2)
+        return np.repeat(np.arange(len(lengths)), lengths)[:n], "setting campaigns shorter than a coil"
+    coils_per_campaign = rng.integers(2, 6, coil.max() + 2)
+    campaign_of_coil = np.repeat(np.arange(len(coils_per_campaign)), coils_per_campaign)[:coil.max() + 1]
+    return campaign_of_coil[coil], "coils shorter than a setting campaign (settings changed at coil changes)"
+
+
+def make_production(n: int, rng: np.random.Generator) -> tuple[pd.DataFrame, dict]:
+    """Parts with canonical column names, plus the hidden per-part quantities the effects use."""
+    elapsed, shift_of, in_shift, strokes = _timeline(n, rng)
+    start = pd.Timestamp("2025-01-06 06:00:00") + pd.Timedelta(days=int(rng.integers(0, 300)))
+    stamps = start + pd.to_timedelta(np.round(elapsed), unit="s")
+    hour = stamps.hour.to_numpy() + stamps.minute.to_numpy() / 60.0
+    day = ((stamps - stamps[0]).days).to_numpy()
+    ambient = (rng.uniform(17, 24) + rng.uniform(3, 7) * np.sin(2 * np.pi * (hour - 10.0) / 24.0)
+               + rng.normal(0, 2.0, day.max() + 1)[day] + rng.normal(0, 0.3, n))
+
+    coil = _coils(n, rng)
+    n_coils = coil.max() + 1
+    stronger = rng.random(n_coils) < rng.uniform(0.1, 0.35)
+    coil_rm = rng.normal(rng.uniform(325, 345), 9, n_coils) + 25.0 * stronger
+    coil_rp = rng.uniform(200, 215) + 0.8 * (coil_rm - coil_rm.mean()) + rng.normal(0, 4.0, n_coils)
+    rm = coil_rm[coil] + rng.normal(0, 2.0, n)
+    rp = coil_rp[coil] + rng.normal(0, 1.8, n)
+    thickness = rng.normal(rng.uniform(0.70, 0.76), 0.01, n_coils)[coil] + rng.normal(0, 0.003, n)
+    r_n = rng.normal(rng.uniform(1.55, 1.8), 0.05, n_coils)[coil] + rng.normal(0, 0.01, n)
+    lubricant = np.round(rng.uniform(0.8, 2.2, n_coils), 2)[coil]
+
+    campaign, confounding = _campaigns(n, coil, rng)
+    n_campaigns = campaign.max() + 1
+    shim_low = rng.uniform(0.35, 0.55, 2)
+    shims = shim_low + 0.05 * rng.integers(0, 7, (n_campaigns, 2))  # shims come in 0.05 mm steps
+    cushion_center = rng.uniform(330, 360)
+    cushions = cushion_center + rng.uniform(-40, 40, (n_campaigns, 4))
+    settings = np.column_stack([shims, cushions])[campaign] + rng.normal(0, [0.004, 0.004, 2, 2, 2, 2], (n, 6))
+
+    warm = rng.uniform(15, 30, shift_of.max() + 1)[shift_of] + 0.15 * (settings[:, 2:].mean(axis=1) - 300.0)
+    tau = rng.uniform(40, 120, shift_of.max() + 1)[shift_of] * 60.0
+    die = ambient + 2.0 + warm * (1.0 - np.exp(-in_shift / tau)) + rng.normal(0, 0.5, n)
+
+    frame = pd.DataFrame({
+        "thickness_mm": thickness, "rm_mpa": rm, "rp02_mpa": rp, "r_n": r_n, "die_temp_c": die,
+        "ambient_temp_c": ambient, "shim20_mm": settings[:, 0], "shim21_mm": settings[:, 1],
+        "cushion_c1_kn": settings[:, 2], "cushion_c2_kn": settings[:, 3], "cushion_c3_kn": settings[:, 4],
+        "cushion_c4_kn": settings[:, 5],
+    }).round(4)
+    hidden = {"elapsed_h": elapsed / 3600.0, "stamps": stamps, "strokes": strokes, "coil": coil,
+              "shift_of": shift_of, "hour": hour, "lubricant": lubricant, "confounding": confounding}
+    return frame, hidden
+
+
+def make_doe(n: int, rng: np.random.Generator, fe_scatter: float) -> pd.DataFrame:
+    sampler = qmc.LatinHypercube(d=len(demo.INPUTS), optimization="random-cd", seed=rng)
+    doe = pd.DataFrame(qmc.scale(sampler.random(n), DOE_LOW, DOE_HIGH), columns=demo.INPUT_NAMES)
+    doe["__target"] = demo.simulator(doe) + rng.normal(0.0, fe_scatter, n)
+    return doe.round(4)
+
+
+def _coil_labels(n_coils: int, rng: np.random.Generator) -> np.ndarray:
+    style = int(rng.integers(0, 3))
+    first = int(rng.integers(1000, 90000))
+    numbers = first + np.arange(n_coils) * int(rng.integers(1, 4))
+    if style == 0:
+        return np.array([f"K{k:05d}" for k in numbers])
+    if style == 1:
+        return np.array([f"C-{2025 + k % 2}-{k:05d}" for k in numbers])
+    return np.array([f"{k:06d}-B" for k in numbers])
+
+
+def _timestamps(stamps: pd.DatetimeIndex, rng: np.random.Generator) -> np.ndarray:
+    if rng.random() < 0.5:
+        return np.asarray(stamps.strftime("%Y-%m-%d %H:%M:%S"))
+    return np.asarray(stamps.strftime("%d.%m.%Y %H:%M:%S"))
+
+
+def _scaled(values: np.ndarray, inside: np.ndarray, target_std: float) -> np.ndarray:
+    """A linear effect in ``values`` whose signed spread over the in-support rows is ``target_std``."""
+    centred = values - values[inside].mean()
+    return centred * target_std / centred[inside].std()
+
+
+def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_support: float = 0.07,
+               n_doe: int = 67) -> PlantCase:
+    """A plant of ``family`` with its hidden effect, magnitudes and habits drawn from ``seed``."""
+    from ..gate import KNNSupportGate
+
+    if family not in FAMILIES:
+        raise ValueError(f"unknown plant family {family!r}; families: {', '.join(FAMILIES)}")
+    rng = np.random.default_rng([seed, FAMILIES.index(family), 11])
+    n = int(n_production or rng.integers(20_000, 40_000))
+    fe_scatter, noise = rng.uniform(1.0, 1.5), rng.uniform(1.0, 1.8)
+    doe = make_doe(n_doe, rng, fe_scatter)
+    gate = KNNSupportGate().fit(doe[demo.INPUT_NAMES])
+    for _ in range(30):  # a plant whose support holds enough parts and coils to learn from
+        frame, hidden = make_production(n, rng)
+        inside = gate.predict(frame[demo.INPUT_NAMES])
+        if inside.mean() >= min_in_support and len(np.unique(hidden["coil"][inside])) >= 10:
+            break
+    names = _names(rng)
+    sign = float(rng.choice([-1.0, 1.0]))
+    effect = np.zeros(n)
+    # a mild effect of the per-coil lubricant film, below what can be told from the surrogate's error
+    background = _scaled(hidden["lubricant"], inside, rng.uniform(0.2, 0.5)) if family != "null" else effect
+    copy = None
+
+    def sigmoid(column: str) -> tuple[np.ndarray, str]:
+        x = frame[column].to_numpy(float)
+        threshold = float(np.quantile(x[inside], rng.uniform(0.35, 0.75)))
+        amplitude, width = sign * rng.uniform(8, 20), rng.uniform(2.0, 3.5)
+        text = f"saturating change of {amplitude:+.1f} mm around {names[column]} = {threshold:.1f} (width {width:.1f})"
+        return amplitude / (1.0 + np.exp(-(x - threshold) / width)), text
+
+    if family in ("temperature", "near_copy", "two_causes"):
+        effect, text = sigmoid("die_temp_c")
+        expected = Expected(names["die_temp_c"], ("sigmoid",))
+        if family == "near_copy":
+            copy = frame["die_temp_c"].to_numpy(float) + rng.normal(0, 0.1, n)
+            expected = Expected(names["die_temp_c"], ("sigmoid",), alias=names["copy"])
+            text += f"; {names['copy']} is a second sensor reading the same within 0.1"
+        if family == "two_causes":
+            wear = _scaled(hidden["strokes"].astype(float), inside, sign * rng.uniform(1.8, 3.0))
+            effect = effect + wear
+            expected = Expected(names["die_temp_c"], ("sigmoid",),
+                                also=(Expected(names["strokes"], ("linear",), monotone=True),))
+            text += f", and a wear drift of {wear[inside].std():.1f} mm (std in support) along {names['strokes']}"
+    elif family == "shim_step":
+        column = str(rng.choice(["shim20_mm", "shim21_mm"]))
+        x = frame[column].to_numpy(float)
+        levels = np.unique(np.round(x[inside], 2))
+        threshold = float(np.quantile(x[inside], rng.uniform(0.3, 0.7)))
+        amplitude = sign * rng.uniform(5, 8)
+        effect = np.where(x >= threshold, amplitude, 0.0)
+        expected = Expected(names[column], ("step", "sigmoid"))
+        text = f"step of {amplitude:+.1f} mm when {names[column]} >= {threshold:.3f} ({len(levels)} levels in support)"
+    elif family == "coil_property":
+        effect = _scaled(hidden["lubricant"], inside, sign * rng.uniform(1.8, 3.0))
+        background = np.zeros(n)
+        expected = Expected(names["lubricant"], ("linear",), monotone=True)
+        text = f"linear effect of the per-coil {names['lubricant']}, {effect[inside].std():.1f} mm std in support"
+    elif family == "coil_itself":
+        offsets = rng.normal(0.0, rng.uniform(2.5, 4.0), hidden["coil"].max() + 1)
+        effect = offsets[hidden["coil"]]
+        expected = Expected(names["coil"], ("group",))
+        text = f"an offset per coil that no logged quantity explains, sd {offsets.std():.1f} mm"
+    elif family == "time_drift":
+        effect = _scaled(hidden["elapsed_h"], inside, sign * rng.uniform(1.8, 3.0))
+        expected = Expected(names["time"], ("linear",), monotone=True)
+        text = (f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
+                "in support, that no logged quantity explains")
+    else:  # null
+        expected = Expected(None)
+        text = "no hidden effect"
+
+    offset = sign * rng.uniform(5, 20)
+    production_target = demo.simulator(frame) + offset + effect + background
+    truth = production_target.copy()
+    measured = np.round(truth + rng.normal(0, noise, n), 3)
+
+    production = frame.rename(columns={c: names[c] for c in demo.INPUT_NAMES})
+    coil_labels = _coil_labels(hidden["coil"].max() + 1, rng)
+    shift_labels = np.array(["A", "B", "C"])[hidden["shift_of"] % 3]
+    log_columns = {
+        names["time"]: _timestamps(hidden["stamps"], rng),
+        names["strokes"]: hidden["strokes"],
+        names["coil"]: coil_labels[hidden["coil"]],
+        names["shift"]: shift_labels,
+        names["lubricant"]: hidden["lubricant"],
+    }
+    if copy is not None:
+        log_columns[names["copy"]] = np.round(copy, 3)
+    order = list(log_columns) + list(production.columns)
+    production = pd.concat([pd.DataFrame(log_columns), production], axis=1)[order]
+    production[names["target"]] = measured
+    doe = doe.rename(columns={**{c: names[c] for c in demo.INPUT_NAMES}, "__target": names["target"]})
+    return PlantCase(family, text, doe, production, truth, [names[c] for c in demo.INPUT_NAMES], names["target"],
+                     expected, float(noise), hidden["confounding"], names)

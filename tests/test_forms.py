@@ -1,0 +1,164 @@
+"""hybridtwin.forms: every discrepancy form on exact data, by hand; trusted ranges; backfitting."""
+import json
+
+import numpy as np
+import pytest
+
+from hybridtwin import forms
+
+X = np.linspace(0.0, 10.0, 101)
+
+
+def test_linear_fits_exact_data():
+    form = forms.Linear().fit(X, 2.0 + 0.5 * X)
+    assert form.slope == pytest.approx(0.5) and form.intercept == pytest.approx(2.0)
+    assert form.n_params == 1
+    assert form.predict([20.0]) == pytest.approx([12.0])  # no trusted range set: extrapolates
+    assert form.describe("die_temp_c") == "linear: +0.5 mm per unit of die_temp_c"
+    assert form.describe("die_temp_c", unit="deg") == "linear: +0.5 deg per unit of die_temp_c"
+
+
+def test_quadratic_fits_exact_data_and_holds_its_ends():
+    form = forms.Quadratic().fit(X, (X - 4.0) ** 2)
+    assert form.n_params == 2
+    np.testing.assert_allclose(form.predict(X), (X - 4.0) ** 2, atol=1e-9)
+    assert form.predict([12.0]) == pytest.approx([36.0])  # held at x = 10: curvature is not extrapolated
+    assert form.describe("t") == "quadratic in t, vertex at 4"
+
+
+def test_sigmoid_recovers_threshold_width_and_amplitude():
+    y = 1.0 - 6.0 / (1.0 + np.exp(-(X - 5.0) / 0.8))
+    form = forms.Sigmoid().fit(X, y)
+    assert form.n_params == 3
+    assert (form.amplitude, form.threshold, form.width) == pytest.approx((-6.0, 5.0, 0.8), abs=1e-3)
+    assert form.intercept == pytest.approx(1.0, abs=1e-3)
+    assert form.describe("T") == "saturating change of -6 mm around T = 5 (10-90% over 3.51)"
+
+
+def test_step_at_threshold_includes_the_threshold():
+    y = np.where(X >= 5.0, 4.0, 1.0)
+    form = forms.Step().fit(X, y)
+    assert form.n_params == 2
+    assert (form.low, form.jump) == pytest.approx((1.0, 3.0))
+    assert 4.9 < form.threshold <= 5.0
+    # a part exactly at the threshold is above it
+    assert form.predict([form.threshold, np.nextafter(form.threshold, -np.inf)]) == pytest.approx([4.0, 1.0])
+    assert form.describe("shim") == f"step of +3 mm at shim = {form.threshold:.4g}"
+
+
+def test_step_with_no_valid_split_is_flat():
+    form = forms.Step().fit(np.ones(10), np.arange(10.0))
+    assert form.jump == 0.0 and form.predict([1.0]) == pytest.approx([4.5])
+
+
+def test_monotone_picks_the_direction_that_fits_and_counts_its_jumps():
+    y = np.where(X < 3, 5.0, np.where(X < 7, 2.0, 0.0))  # decreasing, two jumps
+    form = forms.Monotone().fit(X, y)
+    np.testing.assert_allclose(form.predict(X), y)
+    assert form.n_params == 5  # two jumps (place and height each) and the direction
+    assert form.describe("strokes").startswith("monotone trend of -5 mm over strokes 0..10")
+
+
+def test_monotone_is_silent_on_flat_data():
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error")
+        forms.Monotone().fit(X, np.zeros_like(X))  # sklearn's "auto" direction would warn here
+
+
+def test_group_offsets_and_unseen_levels_get_the_mean():
+    labels = np.array(["a", "a", "b", "b", "b", "c"])
+    y = np.array([1.0, 3.0, 4.0, 4.0, 4.0, 10.0])
+    form = forms.Group().fit(labels, y)
+    assert form.offsets == {"a": 2.0, "b": 4.0, "c": 10.0}
+    assert form.n_params == 2
+    assert form.overall == pytest.approx(26.0 / 6)
+    np.testing.assert_allclose(form.predict(np.array(["c", "zz", "a"])), [10.0, 26.0 / 6, 2.0])
+    assert form.describe("coil_id") == "offsets per coil_id level: 3 levels, sd 3.4 mm"
+
+
+def test_product_and_additive_fit_exact_data():
+    rng = np.random.default_rng(0)
+    ab = rng.uniform(0, 1, (200, 2))
+    a, b = ab.T
+    y = 1.0 + 2.0 * a - 1.0 * b + 3.0 * a * b
+    product = forms.Product().fit(ab, y)
+    np.testing.assert_allclose(product.predict(ab), y, atol=1e-9)
+    assert product.coefficients[3] == pytest.approx(3.0)
+    assert product.n_params == 3
+    assert product.describe("a*b") == "interaction: +3 mm per unit of (a x b)"
+    additive = forms.Additive().fit(ab, 1.0 + 2.0 * a - 1.0 * b)
+    assert additive.n_params == 2
+    assert additive.coefficients[1:] == pytest.approx([2.0, -1.0])
+    assert additive.describe("a*b") == "additive: +2 mm per unit of a, -1 mm per unit of b"
+
+
+@pytest.mark.parametrize("name,x,y", [
+    ("linear", X, 2 * X), ("quadratic", X, X**2), ("sigmoid", X, 1 / (1 + np.exp(-(X - 5)))),
+    ("step", X, (X > 5) * 2.0), ("monotone", X, np.sqrt(X)),
+    ("group", np.array(list("abcab")), np.arange(5.0)),
+    ("product", np.column_stack([X, X[::-1]]), X * X[::-1]),
+    ("additive", np.column_stack([X, X[::-1] ** 2]), X + X[::-1] ** 2),
+])
+def test_every_form_survives_a_json_round_trip(name, x, y):
+    form = forms.fit_form(name, x, y)
+    if name != "group":
+        forms.set_trusted_range(form, x, y)
+    loaded = forms.form_from_dict(json.loads(json.dumps(form.to_dict())))
+    assert loaded.name == name and loaded.n_params == form.n_params
+    probe = x if name == "group" else np.concatenate([x, x * 3 + 1])
+    np.testing.assert_allclose(loaded.predict(probe), form.predict(probe))
+
+
+# ------------------------------------------------------------------ how far a form is trusted
+
+def test_a_slope_fitted_to_a_step_is_held_constant_beyond_the_data():
+    rng = np.random.default_rng(1)
+    x = rng.uniform(0.0, 1.0, 4000)
+    y = np.where(x >= 0.5, 5.0, 0.0) + rng.normal(0, 0.5, len(x))
+    form = forms.fit_form("linear", x, y)
+    assert not forms.extrapolates("linear", x, y)  # on the edges the slope overshoots the plateaus
+    forms.set_trusted_range(form, x, y)
+    assert (form.trust_low, form.trust_high) == pytest.approx((x.min(), x.max()))
+    assert form.predict([3.0]) == pytest.approx(form.predict([x.max()]))
+
+
+def test_a_continuing_trend_is_trusted_as_far_again_as_the_data_span():
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0.0, 1.0, 4000)
+    y = 6.0 * x + rng.normal(0, 0.5, len(x))
+    form = forms.fit_form("linear", x, y)
+    assert forms.extrapolates("linear", x, y)
+    forms.set_trusted_range(form, x, y)
+    span = x.max() - x.min()
+    assert (form.trust_low, form.trust_high) == pytest.approx((x.min() - span, x.max() + span))
+    assert form.predict([x.max() + 0.5 * span]) == pytest.approx([form.intercept + form.slope * (x.max() + 0.5 * span)])
+    assert form.predict([x.max() + 5 * span]) == pytest.approx(form.predict([x.max() + span]))
+
+
+def test_a_pair_is_held_per_column():
+    rng = np.random.default_rng(3)
+    ab = rng.uniform(0, 1, (3000, 2))
+    y = np.where(ab[:, 0] * ab[:, 1] > 0.25, 3.0, 0.0) + rng.normal(0, 0.3, 3000)
+    form = forms.set_trusted_range(forms.fit_form("product", ab, y), ab, y)
+    assert np.ndim(form.trust_low) == 1 and len(form.trust_low) == 2
+    assert form.predict([[5.0, 5.0]]) == pytest.approx(form.predict([[ab[:, 0].max(), ab[:, 1].max()]]))
+
+
+def test_group_offsets_never_get_a_range():
+    form = forms.set_trusted_range(forms.fit_form("group", np.array(list("aab")), np.arange(3.0)), None, None)
+    assert form.trust_low is None
+
+
+# ------------------------------------------------------------------ backfitting
+
+def test_backfitting_recovers_two_correlated_slopes():
+    rng = np.random.default_rng(4)
+    a = rng.normal(0, 1, 2000)
+    b = 0.8 * a + 0.6 * rng.normal(0, 1, 2000)  # correlated: one pass would give biased slopes
+    y = 2.0 * a - 3.0 * b
+    models, means = forms.backfit([a, b], ["linear", "linear"], y, passes=30)
+    assert models[0].slope == pytest.approx(2.0, abs=1e-3)
+    assert models[1].slope == pytest.approx(-3.0, abs=1e-3)
+    np.testing.assert_allclose(sum(m.predict(v) - c for m, v, c in zip(models, [a, b], means)), y - y.mean(), atol=1e-2)
+    one_pass, _ = forms.backfit([a, b], ["linear", "linear"], y, passes=1)
+    assert abs(one_pass[0].slope - 2.0) > 0.5  # what a single pass would have given
