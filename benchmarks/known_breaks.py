@@ -1,0 +1,50 @@
+"""The ten breaks of the method a review once found the fast tests missing; each must now fail a fast test.
+
+Applies one break at a time to a copy of the tree and runs the fast tests (no workflow, no scenarios):
+
+    python benchmarks/known_breaks.py
+"""
+import os, shutil, subprocess, sys, tempfile
+from pathlib import Path
+
+BREAKS = [
+ ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
+ ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
+ ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
+ ("hybridtwin/validation.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
+ ("hybridtwin/metrics.py", "blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))", "blocks = np.array_split(gain, len(gain))"),
+ ("hybridtwin/diagnosis.py", "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits", "    return fits"),
+ ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
+ ("hybridtwin/extension.py", "return self.offset_ + sum(self.terms(frame).values(), np.zeros(len(frame)))", "return sum(self.terms(frame).values(), np.zeros(len(frame)))"),
+ ("hybridtwin/report.py", 'direction = "more" if offset > 0 else "less"', 'direction = "less" if offset > 0 else "more"'),
+ ("hybridtwin/hybrid.py", '"pred_hybrid_gated": gated(surrogate, filtered, inside)', '"pred_hybrid_gated": surrogate + filtered'),
+]
+
+FAST_TESTS = ["tests/test_units.py", "tests/test_forms.py", "tests/test_extension.py", "tests/test_diagnosis_rules.py",
+              "tests/test_report.py", "tests/test_tables.py"]
+
+
+def main() -> int:
+    root = Path(__file__).resolve().parent.parent
+    survived = 0
+    with tempfile.TemporaryDirectory() as scratch:
+        copy = Path(scratch) / "tree"
+        shutil.copytree(root, copy, ignore=shutil.ignore_patterns("results", ".snakemake", ".git", "out"))
+        for number, (path, old, new) in enumerate(BREAKS, start=1):
+            target = copy / path
+            text = target.read_text()
+            if text.count(old) != 1:
+                raise SystemExit(f"break {number}: the line to break is no longer in {path}: {old!r}")
+            target.write_text(text.replace(old, new, 1))
+            result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *FAST_TESTS],
+                                    cwd=copy, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(copy)})
+            target.write_text(text)
+            failed = [line for line in result.stdout.splitlines() if line.startswith("FAILED")][:1]
+            survived += result.returncode == 0
+            print(f"{number:2d} {'caught' if result.returncode else 'SURVIVED'} {path}: {failed[0] if failed else ''}")
+    print(f"{len(BREAKS) - survived} of {len(BREAKS)} breaks caught by the fast tests")
+    return 1 if survived else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

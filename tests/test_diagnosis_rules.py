@@ -1,0 +1,112 @@
+"""hybridtwin.diagnosis: the selection rules, each on a small constructed plant whose right answer is known."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin import diagnosis
+from hybridtwin.diagnosis import Candidate, Settings, best_fit
+from hybridtwin.metrics import block_p_value
+
+SETTINGS = Settings(folds=5, seed=0, interactions=False)
+
+
+def _diagnose(frame, y, surrogate_std=0.2, inputs=()):
+    return diagnosis.diagnose(frame, y, list(inputs), [], SETTINGS, surrogate_std=surrogate_std)
+
+
+def test_block_test_counts_blocks_not_rows():
+    y = np.ones(40)
+    prediction = np.r_[np.ones(20), np.zeros(20)]  # gain 1 in the first block, 0 in the second
+    # block means [1, 0]: t = 0.5 / (0.7071 / sqrt 2) = 1 with 1 degree of freedom
+    assert block_p_value(y, prediction, n_blocks=2) == pytest.approx(0.25)
+    # a t-test over the 40 rows would call this highly significant
+    assert block_p_value(y, np.ones(40), n_blocks=2) == 0.0
+    assert block_p_value(y, np.zeros(40), n_blocks=2) == 1.0
+
+
+def test_elapsed_time_ranks_behind_a_logged_quantity_that_predicts_the_same():
+    rng = np.random.default_rng(0)
+    n = 3000
+    strokes = 1000 + np.arange(n) * 2
+    stamps = pd.Timestamp("2026-01-05 06:00") + pd.to_timedelta(np.arange(n) * 8, unit="s")
+    # "a_time" sorts before "strokes": only the rule can hand the cause to the counter
+    frame = pd.DataFrame({"a_time": stamps.strftime("%Y-%m-%d %H:%M:%S"), "strokes": strokes})
+    y = 0.002 * (strokes - strokes.mean()) + rng.normal(0, 0.5, n)
+    result = _diagnose(frame, y)
+    assert [f.candidate.name for f in result.selected] == ["strokes"]
+    assert result.selected[0].form.name == "linear"
+    assert "a_time" in result.aliases["strokes"]
+
+
+def _coil_plant(explained: float, seed: int = 1):
+    """Coils of 60 parts; a per-coil lubricant film with an effect, and coil offsets nothing logged explains."""
+    rng = np.random.default_rng(seed)
+    n_coils, per_coil = 60, 60
+    lube = rng.uniform(0.8, 2.2, n_coils)
+    own = rng.normal(0, 1.0, n_coils)
+    effect = 3.0 * (lube - lube.mean()) / lube.std()
+    coil_term = np.sqrt(explained) * effect + np.sqrt(1 - explained) * 3.0 * own / own.std()
+    coil = np.repeat(np.arange(n_coils), per_coil)
+    frame = pd.DataFrame({"coil": [f"K{c:03d}" for c in coil], "lube": np.round(lube[coil], 2),
+                          "ambient": rng.normal(20, 2, len(coil))})
+    return frame, coil_term[coil] + rng.normal(0, 0.5, len(coil))
+
+
+def test_an_id_stands_for_the_quantity_that_explains_most_of_its_levels():
+    frame, y = _coil_plant(explained=1.0)
+    result = _diagnose(frame, y)
+    assert [f.candidate.name for f in result.selected] == ["lube"]
+    # coil and lube predict the same: the simpler column is named, the id reported beside it
+    assert "lube" in result.table.set_index("cause").loc["coil", "note"]
+
+
+def test_an_id_stays_as_a_second_cause_where_its_remainder_is_significant():
+    frame, y = _coil_plant(explained=0.75)
+    result = _diagnose(frame, y)
+    assert [f.candidate.name for f in result.selected] == ["lube", "coil"]
+    assert result.proxies["coil"][0] == "lube"
+    assert 0.6 < result.proxies["coil"][1] < 0.9
+
+
+def test_an_id_that_nothing_explains_is_named_itself():
+    frame, y = _coil_plant(explained=0.0)
+    result = _diagnose(frame, y)
+    assert result.selected[0].candidate.name == "coil"
+    assert result.selected[0].form.name == "group"
+    assert "coil" not in result.proxies
+
+
+def test_a_closed_form_goes_ahead_of_a_monotone_trend_that_it_matches():
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0, 1, 3000)
+    y = np.where(x >= 0.5, 3.0, 0.0) + rng.normal(0, 0.3, 3000)
+    fit = best_fit(Candidate("shim", "input", x, ("shim",)), y - y.mean(), SETTINGS)
+    by_form = {alt.form.name: alt for alt in fit.alternatives}
+    trend_first = [by_form["monotone"], by_form["linear"], by_form["step"]]
+    assert diagnosis._named_form_first(trend_first, min_effect=0.5)[0].form.name == "step"
+    # the linear fit does not predict the step within 0.5, so it is passed over
+    assert diagnosis._named_form_first([by_form["monotone"], by_form["linear"]], 0.5)[0].form.name == "monotone"
+
+
+def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
+    rng = np.random.default_rng(3)
+    n = 4000
+    temp = rng.uniform(20, 50, n)
+    y = 6.0 / (1 + np.exp(-(temp - 35) / 1.5)) + rng.normal(0, 0.4, n)
+    y -= y.mean()
+    fits = {name: best_fit(Candidate(name, kind, values, cols), y, SETTINGS, 0.5) for name, kind, values, cols in [
+        ("temp", "input", temp, ("temp",)),
+        ("temp*other", "interaction", np.column_stack([temp, rng.normal(0, 1, n)]), ("temp", "other")),
+    ]}
+    # the pair as the best-scoring candidate: the single column is simpler and predicts the same
+    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), 2.0, lambda fit: True)
+    assert chosen.candidate.name == "temp"
+    assert chosen.form.name == fits["temp"].form.name == "sigmoid"
+
+
+def test_no_cause_on_pure_noise():
+    rng = np.random.default_rng(4)
+    frame = pd.DataFrame({"a": rng.normal(0, 1, 2000), "coil": [f"K{i // 50}" for i in range(2000)]})
+    result = _diagnose(frame, rng.normal(0, 1, 2000), surrogate_std=0.3)
+    assert result.selected == []
+    assert not result.table["significant"].any()

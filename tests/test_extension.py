@@ -1,0 +1,77 @@
+"""hybridtwin.extension: offset plus diagnosed terms, refitted jointly, trusted only as far as the data show."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin.extension import Cause, DiscrepancyExtension, gain_table
+
+RNG = np.random.default_rng(5)
+A = RNG.normal(0, 1, 3000)
+B = 0.8 * A + 0.6 * RNG.normal(0, 1, 3000)
+FRAME = pd.DataFrame({"a": A, "b": B, "coil": np.where(A > 0, "K1", "K2")})
+LINEAR_A, LINEAR_B = Cause("a", "input", ("a",), "linear"), Cause("b", "log", ("b",), "linear")
+
+
+def test_offset_alone_is_the_mean_residual():
+    model = DiscrepancyExtension(()).fit(FRAME, 4.0 + 0.0 * A)
+    assert model.offset_ == pytest.approx(4.0)
+    np.testing.assert_allclose(model.predict(FRAME), 4.0)
+
+
+def test_offset_and_one_term_recover_the_residual():
+    model = DiscrepancyExtension((LINEAR_A,)).fit(FRAME, 5.0 + 2.0 * A)
+    assert model.offset_ == pytest.approx(5.0 + 2.0 * A.mean())
+    np.testing.assert_allclose(model.predict(FRAME), 5.0 + 2.0 * A, atol=1e-9)
+
+
+def test_two_correlated_causes_are_fitted_jointly():
+    model = DiscrepancyExtension((LINEAR_A, LINEAR_B)).fit(FRAME, 1.0 + 2.0 * A - 3.0 * B)
+    slopes = [form.slope for form in model.forms_]
+    assert slopes == pytest.approx([2.0, -3.0], abs=0.02)  # one backfitting pass would be far off
+    np.testing.assert_allclose(model.predict(FRAME), 1.0 + 2.0 * A - 3.0 * B, atol=0.05)
+
+
+def test_a_missing_cause_column_contributes_nothing():
+    model = DiscrepancyExtension((LINEAR_A, LINEAR_B)).fit(FRAME, 1.0 + 2.0 * A - 3.0 * B)
+    without_b = FRAME.drop(columns="b")
+    terms = model.terms(without_b)
+    np.testing.assert_allclose(terms["b"], 0.0)
+    np.testing.assert_allclose(model.predict(without_b), model.offset_ + terms["a"])
+
+
+def test_a_term_fitted_to_a_step_is_held_beyond_the_fitted_values():
+    x = RNG.uniform(0, 1, 4000)
+    frame = pd.DataFrame({"shim": x})
+    residual = np.where(x >= 0.5, 5.0, 0.0) + RNG.normal(0, 0.3, len(x))
+    model = DiscrepancyExtension((Cause("shim", "input", ("shim",), "linear"),)).fit(frame, residual)
+    beyond = model.predict(pd.DataFrame({"shim": [x.max(), 2.0, 10.0]}))
+    assert beyond == pytest.approx([beyond[0]] * 3)
+
+
+def test_json_round_trip_keeps_trusted_ranges():
+    x = RNG.uniform(0, 1, 4000)
+    frame = pd.DataFrame({"shim": x, "coil": np.where(x > 0.3, "K1", "K2")})
+    residual = np.where(x >= 0.5, 5.0, 0.0) + RNG.normal(0, 0.3, len(x))
+    causes = (Cause("shim", "input", ("shim",), "linear"), Cause("coil", "group", ("coil",), "group"))
+    model = DiscrepancyExtension(causes).fit(frame, residual)
+    loaded = DiscrepancyExtension.from_dict(json.loads(json.dumps(model.to_dict())))
+    probe = pd.DataFrame({"shim": [-1.0, 0.2, 0.7, 3.0], "coil": ["K1", "K2", "new", "K1"]})
+    np.testing.assert_allclose(loaded.predict(probe), model.predict(probe))
+
+
+def test_gain_table_scores_each_region_on_its_rows():
+    measured = np.array([1.0, 2.0, 3.0, 4.0])
+    inside = np.array([True, True, False, False])
+    predictions = {"hybrid": np.array([1.0, 3.0, 3.0, 2.0]), "extended": measured.copy()}
+    matched = {"hybrid": np.array([0.0]), "extended": np.array([1.0])}
+    table = gain_table(measured, predictions, inside, np.array([1.0]), matched, truth=measured + 1, noise=2.0)
+    row = table.set_index("model").loc["hybrid"]
+    assert row["rmse_in_support_cv"] == pytest.approx(np.sqrt(0.5))  # errors 0, -1
+    assert row["rmse_out_of_support"] == pytest.approx(np.sqrt(2.0))  # errors 0, 2
+    assert row["rmse_matched"] == pytest.approx(1.0)
+    assert row["rmse_truth_out_of_support"] == pytest.approx(np.sqrt((1 + 9) / 2))  # truth 4, 5 against 3, 2
+    assert row["out_of_support_over_noise"] == pytest.approx(np.sqrt(2.0) / 2.0)
+    assert table.set_index("model").loc["extended", "rmse_out_of_support"] == 0.0
+    assert (table["n_in_support"] == 2).all() and (table["n_out_of_support"] == 2).all()

@@ -1,0 +1,53 @@
+"""hybridtwin.report: the diagnosis in words: signs, sizes, the named cause and what could not be separated."""
+import pandas as pd
+import pytest
+
+from hybridtwin.report import diagnosis_markdown
+
+CAUSES = pd.DataFrame([
+    {"rank": 1, "cause": "die_temp_c", "form": "sigmoid", "explained_share": 0.62, "p_value": 1e-9},
+    {"rank": 2, "cause": "coil_id", "form": "group", "explained_share": 0.75, "p_value": 1e-6},
+])
+GAIN = pd.DataFrame([
+    {"model": "hybrid", "rmse_in_support_cv": 1.4, "rmse_out_of_support": 2.0, "rmse_matched": 1.1,
+     "evaluated_on": "test rows"},
+    {"model": "extended", "rmse_in_support_cv": 1.4, "rmse_out_of_support": 1.5, "rmse_matched": 1.0,
+     "evaluated_on": "test rows"},
+])
+
+
+def _summary(offset, selected=True):
+    cause = {"name": "die_temp_c", "form": "sigmoid", "family": "saturating",
+             "description": "saturating change of -9.7 mm around die_temp_c = 41.1", "effect_range": 9.7,
+             "p_value": 1e-9}
+    return {"offset": offset, "offset_se": 0.1, "n_rows": 1234, "residual_std": 3.0, "surrogate_std": 1.0,
+            "min_effect": 1.0, "selected": [cause] if selected else [], "aliases": {"die_temp_c": []},
+            "explained_by": {}, "proxies": {"coil_id": {"cause": "die_temp_c", "share": 0.81}}}
+
+
+@pytest.mark.parametrize("offset, words", [(-3.25, "**3.25 mm less**"), (7.5, "**7.50 mm more**")])
+def test_offset_sign_and_size(offset, words):
+    text = diagnosis_markdown(CAUSES, _summary(offset), GAIN, "draw-in", "mm")
+    assert f"the plant draws in {words} than simulated" in text
+
+
+def test_names_the_cause_the_table_ranks_first_and_the_id_it_stands_for():
+    text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm")
+    assert "1. **`die_temp_c`**, form *sigmoid* (saturating)" in text
+    assert "explains 62.0% of the offset-free residual variance" in text
+    assert "`coil_id` is an id" in text and "`die_temp_c` accounts for 81% of the differences" in text
+    assert "1,234 in-support production parts" in text
+
+
+def test_out_of_support_gain_in_words():
+    text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm")
+    assert "the extended model's RMSE is 1.50 mm against 2.00 mm for the paper's hybrid" in text
+    assert "25% lower." in text
+    worse = GAIN.assign(rmse_out_of_support=[1.0, 1.5])
+    assert "no gain." in diagnosis_markdown(CAUSES, _summary(2.0), worse, "draw-in", "mm")
+
+
+def test_says_plainly_when_nothing_is_significant():
+    text = diagnosis_markdown(CAUSES, _summary(2.0, selected=False), GAIN, "draw-in", "mm")
+    assert "**No cause beyond the offset is significant.**" in text
+    assert "Strongest candidate, not significant: `die_temp_c`" in text
