@@ -25,7 +25,7 @@ from joblib import Parallel, delayed
 
 from . import forms
 from .forms import fit_form
-from .metrics import block_p_value
+from .metrics import block_means, block_p_value
 from .validation import folds as kfolds
 
 log = logging.getLogger(__name__)
@@ -395,8 +395,8 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         frame, residual = frame.iloc[keep].reset_index(drop=True), residual[keep]
     offset = float(residual.mean())
     y = residual - offset
-    blocks = np.array_split(residual, min(settings.n_blocks, max(2, len(residual) // 20)))
-    offset_se = float(np.std([b.mean() for b in blocks], ddof=1) / np.sqrt(len(blocks)))
+    blocks = block_means(residual, settings.n_blocks)
+    offset_se = float(np.std(blocks, ddof=1) / np.sqrt(len(blocks)))
     candidates, skipped = build_candidates(frame, inputs, exclude, settings)
     min_effect = settings.surrogate_margin * surrogate_std
     n_tests = len(candidates)

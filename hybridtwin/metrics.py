@@ -36,6 +36,12 @@ def scores(y_true, y_pred, names=("r2", "rmse", "mae", "bias")) -> dict[str, flo
     return {name: METRICS[name](y_true, y_pred) for name in names}
 
 
+def block_means(values, n_blocks: int) -> np.ndarray:
+    """Means over at most ``n_blocks`` blocks of consecutive rows (at least 2 blocks, about 20 rows or more each)."""
+    values = np.asarray(values, float)
+    return np.array([block.mean() for block in np.array_split(values, min(n_blocks, max(2, len(values) // 20)))])
+
+
 def block_p_value(y, prediction, n_blocks: int) -> float:
     """One-sided p-value that ``prediction`` beats predicting zero, from means over blocks of consecutive rows.
 
@@ -43,9 +49,7 @@ def block_p_value(y, prediction, n_blocks: int) -> float:
     independent, so a t-test over them does not overstate the evidence as one over rows would.
     """
     y, prediction = np.asarray(y, float), np.asarray(prediction, float)
-    gain = y**2 - (y - prediction) ** 2
-    blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))
-    means = np.array([block.mean() for block in blocks])
+    means = block_means(y**2 - (y - prediction) ** 2, n_blocks)
     se = means.std(ddof=1) / np.sqrt(len(means))
     if se == 0:
         return 0.0 if means.mean() > 0 else 1.0

@@ -1,5 +1,6 @@
 """hybridtwin.forms: every discrepancy form on exact data, by hand; trusted ranges; backfitting."""
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -60,8 +61,8 @@ def test_monotone_picks_the_direction_that_fits_and_counts_its_jumps():
 
 
 def test_monotone_is_silent_on_flat_data():
-    with __import__("warnings").catch_warnings():
-        __import__("warnings").simplefilter("error")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         forms.Monotone().fit(X, np.zeros_like(X))  # sklearn's "auto" direction would warn here
 
 
