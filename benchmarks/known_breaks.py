@@ -12,7 +12,7 @@ BREAKS = [
  ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
  ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
  ("hybridtwin/validation.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
- ("hybridtwin/metrics.py", "blocks = np.array_split(gain, min(n_blocks, max(2, len(gain) // 20)))", "blocks = np.array_split(gain, len(gain))"),
+ ("hybridtwin/metrics.py", "np.array_split(values, min(n_blocks, max(2, len(values) // 20)))", "np.array_split(values, len(values))"),
  ("hybridtwin/diagnosis.py", "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits", "    return fits"),
  ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
  ("hybridtwin/extension.py", "return self.offset_ + sum(self.terms(frame).values(), np.zeros(len(frame)))", "return sum(self.terms(frame).values(), np.zeros(len(frame)))"),

@@ -234,10 +234,34 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
         fits.append(Fit(candidate, full, oof, cv_mse, null_mse, float(score), block_p_value(y, oof, settings.n_blocks),
                         float(np.ptp(fitted)), float(np.std(fitted))))
     fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
-    fits = _named_form_first(fits, min_effect)
+    fits = _edge_form_first(_named_form_first(fits, min_effect), min_effect, candidate, y)
     best = fits[0]
     best.alternatives = fits
     return best
+
+
+def _edge_form_first(fits: list[Fit], min_effect: float, candidate: Candidate, y) -> list[Fit]:
+    """Among the closed forms that predict what the leading one predicts within ``min_effect``, the one
+    with the fewest parameters goes first, unless one with more predicts the edges significantly better.
+
+    Inside the support a wide sigmoid and a slope, or a step and a slope between two
+    campaign levels, agree within the surrogate's error, and the held-out score picks
+    between them by that error. Fitted on the inner values of the cause and asked for the
+    outer ones (:func:`forms.predicts_edges_better`) they part ways as they will out of
+    the support: a step beats the slope there, a slope the wide sigmoid does not.
+    """
+    if (not fits or candidate.kind not in ("input", "log", "time")
+            or fits[0].form.n_params > MAX_CLOSED_FORM_PARAMS):
+        return fits
+    equivalent = sorted((fit for fit in fits if fit.form.n_params <= MAX_CLOSED_FORM_PARAMS
+                         and (fit is fits[0] or predicts_the_same(fit, fits[0], min_effect))),
+                        key=lambda fit: (fit.form.n_params, fit.score))
+    choice = equivalent[0]
+    for fit in equivalent[1:]:
+        if fit.form.n_params > choice.form.n_params and forms.predicts_edges_better(
+                fit.form.name, choice.form.name, candidate.values, y):
+            choice = fit
+    return [choice] + [fit for fit in fits if fit is not choice]
 
 
 def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:
@@ -408,14 +432,24 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     proxies: dict[str, tuple[str, float]] = {}  # id -> the cause named for it, and the share of its level differences
     conditional: dict[str, Fit] = dict(marginal)
     remaining = y
+    def acceptable(fit: Fit) -> bool:
+        return is_significant(fit, n_tests, settings, min_effect)
+
+    def refit() -> tuple[np.ndarray, dict[str, Fit]]:
+        """Joint fit of the chosen causes; what they leave, and every other candidate's fit to it."""
+        models, _ = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
+        for fit, model in zip(selected, models):
+            fit.form = model
+        left = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
+        chosen = {s.candidate.name for s in selected}
+        return left - left.mean(), fit_all([c for c in candidates if c.name not in chosen], left - left.mean(),
+                                           settings, min_effect)
+
     while len(selected) < settings.max_causes:
         pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}
                 and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
         if not pool:
             break
-        def acceptable(fit: Fit) -> bool:
-            return is_significant(fit, n_tests, settings, min_effect)
-
         best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect, acceptable)
         named, share = physical_cause(best, pool, remaining, acceptable)
         if named is not best:
@@ -424,19 +458,56 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         if not is_significant(best, n_tests, settings, min_effect):
             break
         selected.append(best)
-        models, _ = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
-        for fit, model in zip(selected, models):
-            fit.form = model
-        remaining = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
-        remaining = remaining - remaining.mean()
-        chosen = {s.candidate.name for s in selected}
-        conditional = fit_all([c for c in candidates if c.name not in chosen], remaining, settings, min_effect)
+        remaining, conditional = refit()
+
+    if _single_columns_for_pairs(selected, {c.name: c for c in candidates}, y, settings, min_effect, acceptable):
+        remaining, conditional = refit()
 
     aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
     table = _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
                    min_effect)
     return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, y,
                      {c.name: c for c in candidates}, skipped, selected, aliases, explained_by, proxies)
+
+
+def joint_share(fits: list[Fit], y, settings: Settings) -> float:
+    """Held-out share of ``y`` that several terms explain together (backfitted on each fold's training rows)."""
+    oof = np.zeros_like(y)
+    for train, test in kfolds(len(y), settings.folds, settings.seed):
+        models, means = forms.backfit([f.candidate.values[train] for f in fits], [f.form.name for f in fits], y[train])
+        oof[test] = y[train].mean() + sum(m.predict(f.candidate.values[test]) - c
+                                          for m, f, c in zip(models, fits, means))
+    return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
+
+
+def _single_columns_for_pairs(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings,
+                              min_effect: float, acceptable) -> bool:
+    """Replace a chosen product a*b by a or b alone where, given the other chosen causes, the single column
+    explains as much (within :data:`SHARE_TOLERANCE`, held out); returns whether anything was replaced.
+
+    Chosen one at a time, a product can take up part of a cause that is chosen after it (a
+    die that warms more under higher cushion forces and a wear drift along the same
+    shifts); with every cause in, the single column says what the product said.
+    """
+    replaced = False
+    for j, fit in enumerate(list(selected)):
+        if fit.candidate.kind != "interaction":
+            continue
+        others = selected[:j] + selected[j + 1:]
+        rest = y.copy()
+        if others:
+            models, means = forms.backfit([o.candidate.values for o in others], [o.form.name for o in others], y)
+            rest = y - sum(m.predict(o.candidate.values) - c for m, o, c in zip(models, others, means))
+        current = joint_share(selected, y, settings)
+        singles = [best_fit(by_name[column], rest - rest.mean(), settings, min_effect)
+                   for column in fit.candidate.columns if column in by_name]
+        singles = [single for single in singles if acceptable(single)]
+        scored = [(joint_share(selected[:j] + [single] + selected[j + 1:], y, settings), single) for single in singles]
+        scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
+        if scored:
+            selected[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
+            replaced = True
+    return replaced
 
 
 def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):

@@ -309,25 +309,58 @@ EDGE_ALPHA = 0.01  # one-sided block test that extrapolating beats holding const
 MIN_EDGE_ROWS = 50
 
 
+def edge_split(x):
+    """Rows whose cause lies within the inner quantiles (:data:`EDGE_QUANTILES`, per column for a pair),
+    and those quantiles; None where either side has too few rows to judge."""
+    columns = np.asarray(x, float).reshape(len(x), -1)
+    low, high = np.quantile(columns, EDGE_QUANTILES, axis=0)
+    inner = np.all((columns >= low) & (columns <= high), axis=1)
+    if inner.sum() < MIN_EDGE_ROWS or (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
+        return None
+    return inner, low, high
+
+
+def edge_prediction(name: str, x, y):
+    """The outer rows (a mask) and a form's predictions there when fitted on the inner ones, extrapolated as
+    the form does; None where the rows cannot be split."""
+    split = edge_split(x)
+    if split is None:
+        return None
+    inner = split[0]
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    return ~inner, fit_form(name, x[inner], y[inner]).predict(x[~inner])
+
+
+def predicts_edges_better(name: str, reference: str, x, y, n_blocks: int = 50) -> bool:
+    """Whether form ``name`` predicts the outer rows better than form ``reference`` does, both fitted on the
+    inner rows (one-sided block test at :data:`EDGE_ALPHA`)."""
+    from .metrics import block_p_value
+
+    ours, theirs = edge_prediction(name, x, y), edge_prediction(reference, x, y)
+    if ours is None:
+        return False
+    outer = ours[0]
+    y = np.asarray(y, float)[outer]
+    return block_p_value(y - theirs[1], ours[1] - theirs[1], n_blocks) < EDGE_ALPHA
+
+
 def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
     """Whether the data show the form's trend continuing beyond its inner stretch.
 
-    The form is fitted on the rows whose cause lies within the inner quantiles
-    (:data:`EDGE_QUANTILES`, per column for a pair) and predicts the other rows twice:
-    extrapolated, and held at the inner stretch's edge. It extrapolates only where the
-    extrapolated prediction is better, by a block-wise one-sided test over consecutive
+    The form is fitted on the inner rows (:func:`edge_split`) and predicts the outer rows
+    twice: extrapolated, and held at the inner stretch's edge. It extrapolates only where
+    the extrapolated prediction is better, by a block-wise one-sided test over consecutive
     rows. Group offsets never extrapolate (an unseen level gets the mean).
     """
     from .metrics import block_p_value
 
     if name == Group.name:
         return False
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    columns = x.reshape(len(x), -1)
-    low, high = np.quantile(columns, EDGE_QUANTILES, axis=0)
-    inner = np.all((columns >= low) & (columns <= high), axis=1)
-    if inner.sum() < MIN_EDGE_ROWS or (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
+    split = edge_split(x)
+    if split is None:
         return False
+    inner, low, high = split
+    x, y = np.asarray(x, float), np.asarray(y, float)
     model = fit_form(name, x[inner], y[inner])
     outer = x[~inner]
     extrapolated = model.predict(outer)
