@@ -110,3 +110,33 @@ def test_no_cause_on_pure_noise():
     result = _diagnose(frame, rng.normal(0, 1, 2000), surrogate_std=0.3)
     assert result.selected == []
     assert not result.table["significant"].any()
+
+
+def test_among_equivalent_forms_the_fewest_parameters_unless_the_edges_say_otherwise():
+    rng = np.random.default_rng(6)
+    x = rng.uniform(0, 1, 4000)
+    # a slope with a mild S inside (the surrogate's own error): a sigmoid scores best held out
+    slope = 4.0 * x + 0.3 * np.tanh((x - 0.5) / 0.08) + rng.normal(0, 0.5, 4000)
+    fit = best_fit(Candidate("rp02", "input", x, ("rp02",)), slope - slope.mean(), SETTINGS, min_effect=1.0)
+    assert min(fit.alternatives, key=lambda alt: alt.score).form.name == "sigmoid"
+    assert fit.form.name == "linear"  # it predicts the same, and the edges do not show its bend
+    step = np.where(x >= 0.5, 4.0, 0.0) + rng.normal(0, 0.5, 4000)
+    fit = best_fit(Candidate("shim", "input", x, ("shim",)), step - step.mean(), SETTINGS, min_effect=2.0)
+    assert fit.form.name in ("step", "sigmoid")  # the slope matches within 2, but not on the edges
+
+
+def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
+    rng = np.random.default_rng(7)
+    n = 3000
+    temp, other = rng.uniform(20, 50, n), rng.uniform(0, 1, n)
+    y = 6.0 / (1 + np.exp(-(temp - 35) / 2.0)) + rng.normal(0, 0.4, n)
+    y -= y.mean()
+    pair = Candidate("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
+    by_name = {"temp": Candidate("temp", "input", temp, ("temp",)), "other": Candidate("other", "input", other, ("other",))}
+    selected = [best_fit(pair, y, SETTINGS)]
+    assert diagnosis._single_columns_for_pairs(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
+    assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"
+    # a real interaction stays
+    y2 = 0.2 * (temp - 35) * (other - 0.5) + rng.normal(0, 0.3, n)
+    selected = [best_fit(pair, y2 - y2.mean(), SETTINGS)]
+    assert not diagnosis._single_columns_for_pairs(selected, by_name, y2 - y2.mean(), SETTINGS, 0.5, lambda fit: True)
