@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
+from ..gate import KNNSupportGate
 from . import plant as demo
 
 # canonical (demo) input name -> names a plant might use for it
@@ -93,8 +94,7 @@ DOE_HIGH = np.array([v[1] for v in demo.INPUTS.values()])
 
 def _names(rng: np.random.Generator) -> dict[str, str]:
     """Canonical name -> this plant's column name."""
-    names = {key: str(rng.choice(options)) for key, options in {**INPUT_VOCABULARY, **LOG_VOCABULARY}.items()}
-    return names
+    return {key: str(rng.choice(options)) for key, options in {**INPUT_VOCABULARY, **LOG_VOCABULARY}.items()}
 
 
 def _timeline(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -213,8 +213,6 @@ def _scaled(values: np.ndarray, inside: np.ndarray, target_std: float) -> np.nda
 def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_support: float = 0.07,
                n_doe: int = 67) -> PlantCase:
     """A plant of ``family`` with its hidden effect, magnitudes and habits drawn from ``seed``."""
-    from ..gate import KNNSupportGate
-
     if family not in FAMILIES:
         raise ValueError(f"unknown plant family {family!r}; families: {', '.join(FAMILIES)}")
     rng = np.random.default_rng([seed, FAMILIES.index(family), 11])

@@ -12,6 +12,8 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+import pandas as pd
+import xgboost as xgb
 
 from .. import diagnosis, residual
 from . import plant as demo
@@ -282,21 +284,11 @@ def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Se
 def shap_top_column(frame, residual_values, seed: int, n_jobs: int = 1) -> str:
     """The baseline: the column with the largest mean |TreeSHAP| in an XGBoost model of the residual.
 
-    Every column the diagnosis may name is a feature: numbers as they are, timestamps as
-    elapsed hours, text ids as categories.
+    Every column the diagnosis may name is a feature, read as the diagnosis reads it
+    (numbers, timestamps as elapsed hours, text ids as categories).
     """
-    import pandas as pd
-    import xgboost as xgb
-
-    features = {}
-    for column in frame.columns:
-        values = frame[column]
-        if pd.api.types.is_numeric_dtype(values):
-            features[column] = values.to_numpy(float)
-            continue
-        hours = diagnosis.elapsed_hours(values)
-        features[column] = hours if hours is not None else values.astype("category")
-    table = pd.DataFrame(features)
+    candidates, _ = diagnosis.build_candidates(frame, [], [], diagnosis.Settings(interactions=False, max_levels=10**9))
+    table = pd.DataFrame({c.name: pd.Categorical(c.values) if c.kind == "group" else c.values for c in candidates})
     model = residual.make_model(SCENARIO_XGB, seed, n_jobs).set_params(enable_categorical=True)
     model.fit(table, residual_values)
     contributions = model.get_booster().predict(xgb.DMatrix(table, enable_categorical=True), pred_contribs=True)
