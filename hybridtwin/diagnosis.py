@@ -234,33 +234,30 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
         fits.append(Fit(candidate, full, oof, cv_mse, null_mse, float(score), block_p_value(y, oof, settings.n_blocks),
                         float(np.ptp(fitted)), float(np.std(fitted))))
     fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
-    fits = _edge_form_first(_named_form_first(fits, min_effect), min_effect, candidate, y)
+    fits = _unseen_saturation_last(_named_form_first(fits, min_effect), min_effect, candidate)
     best = fits[0]
     best.alternatives = fits
     return best
 
 
-def _edge_form_first(fits: list[Fit], min_effect: float, candidate: Candidate, y) -> list[Fit]:
-    """Among the closed forms that predict what the leading one predicts within ``min_effect``, the one
-    with the fewest parameters goes first, unless one with more predicts the edges significantly better.
+def _unseen_saturation_last(fits: list[Fit], min_effect: float, candidate: Candidate) -> list[Fit]:
+    """A sigmoid whose change (10-90%) is wider than the values it was fitted on gives way to a simpler
+    closed form that predicts the same within ``min_effect``.
 
-    Inside the support a wide sigmoid and a slope, or a step and a slope between two
-    campaign levels, agree within the surrogate's error, and the held-out score picks
-    between them by that error. Fitted on the inner values of the cause and asked for the
-    outer ones (:func:`forms.predicts_edges_better`) they part ways as they will out of
-    the support: a step beats the slope there, a slope the wide sigmoid does not.
+    Such a sigmoid shows no saturation in the data: it is a trend with a bend the data do
+    not show (the surrogate's own error along the column can put one there), and it says
+    "saturating" where the data say "slope".
     """
-    if (not fits or candidate.kind not in ("input", "log", "time")
-            or fits[0].form.n_params > MAX_CLOSED_FORM_PARAMS):
+    first = fits[0] if fits else None
+    if first is None or first.form.name != forms.Sigmoid.name or candidate.kind not in ("input", "log", "time"):
         return fits
-    equivalent = sorted((fit for fit in fits if fit.form.n_params <= MAX_CLOSED_FORM_PARAMS
-                         and (fit is fits[0] or predicts_the_same(fit, fits[0], min_effect))),
-                        key=lambda fit: (fit.form.n_params, fit.score))
-    choice = equivalent[0]
-    for fit in equivalent[1:]:
-        if fit.form.n_params > choice.form.n_params and forms.predicts_edges_better(
-                fit.form.name, choice.form.name, candidate.values, y):
-            choice = fit
+    if forms.SIGMOID_SPAN * first.form.width <= float(np.ptp(candidate.values)):
+        return fits
+    simpler = [fit for fit in fits[1:] if fit.form.n_params < first.form.n_params
+               and predicts_the_same(fit, first, min_effect)]
+    if not simpler:
+        return fits
+    choice = min(simpler, key=lambda fit: (fit.form.n_params, fit.score))
     return [choice] + [fit for fit in fits if fit is not choice]
 
 

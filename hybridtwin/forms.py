@@ -16,6 +16,9 @@ FAMILIES = {"linear": "linear", "quadratic": "polynomial", "sigmoid": "saturatin
             "additive": "additive"}
 
 
+SIGMOID_SPAN = 4.39  # a logistic's 10-90% change spans 2*ln(9) = 4.39 widths
+
+
 def _logistic(z):
     return 0.5 * (1.0 + np.tanh(0.5 * z))
 
@@ -136,7 +139,7 @@ class Sigmoid(Form):
 
     def describe(self, column, unit="mm"):
         return (f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
-                f"(10-90% over {4.39 * self.width:.3g})")
+                f"(10-90% over {SIGMOID_SPAN * self.width:.3g})")
 
 
 class Step(Form):
@@ -318,30 +321,6 @@ def edge_split(x):
     if inner.sum() < MIN_EDGE_ROWS or (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
         return None
     return inner, low, high
-
-
-def edge_prediction(name: str, x, y):
-    """The outer rows (a mask) and a form's predictions there when fitted on the inner ones, extrapolated as
-    the form does; None where the rows cannot be split."""
-    split = edge_split(x)
-    if split is None:
-        return None
-    inner = split[0]
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    return ~inner, fit_form(name, x[inner], y[inner]).predict(x[~inner])
-
-
-def predicts_edges_better(name: str, reference: str, x, y, n_blocks: int = 50) -> bool:
-    """Whether form ``name`` predicts the outer rows better than form ``reference`` does, both fitted on the
-    inner rows (one-sided block test at :data:`EDGE_ALPHA`)."""
-    from .metrics import block_p_value
-
-    ours, theirs = edge_prediction(name, x, y), edge_prediction(reference, x, y)
-    if ours is None:
-        return False
-    outer = ours[0]
-    y = np.asarray(y, float)[outer]
-    return block_p_value(y - theirs[1], ours[1] - theirs[1], n_blocks) < EDGE_ALPHA
 
 
 def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
