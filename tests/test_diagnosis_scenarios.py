@@ -30,13 +30,6 @@ DRAWS = _draws()
 
 # Known misses, kept in view: a strict xfail turns red once the method gets them right.
 KNOWN_MISSES = {
-    # the die temperature's saturating loss (width 2 degC) is named as a parabola once the wear drift is
-    # in: inside the support the two agree and the edges do not tell them apart
-    ("families", "two_causes", 1, "test_names_the_hidden_cause_and_its_form"),
-    # the seed-12345 shim step: now named as a step, but the extended hybrid's trees, fitted to what the
-    # step leaves, extrapolate worse out of the support than the hybrid's (1.07-1.34 times over four XGBoost
-    # seeds, 0.1-0.2 mm): the form is right, the black-box remainder is not guarded yet
-    ("demo", "shim_step", 12346, "test_extension_never_loses_to_the_hybrid_out_of_support"),
     # coil offsets that line up with setting campaigns taken up first by a product of two inputs
     ("demo", "coil_offset", 2, "test_names_the_hidden_cause_and_its_form"),
 }
