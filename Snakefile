@@ -12,6 +12,7 @@ configfile: "config/config.yaml"
 validate(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
 
 
+
 report: "workflow/report/workflow.rst"
 
 
@@ -21,6 +22,7 @@ include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/residual.smk"
 include: "workflow/rules/evaluation.smk"
 include: "workflow/rules/diagnosis.smk"
+include: "workflow/rules/predictor.smk"
 
 
 rule all:

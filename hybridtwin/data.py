@@ -189,6 +189,10 @@ def _ragged_hint(header: list[str], fields: list[str], fmt: CsvFormat) -> str:
             "holding the separator that is not quoted?")
 
 
+def _config_entry(role: str) -> str:
+    return f" (config data.{role})" if role in ("doe", "production", "matched") else ""
+
+
 def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     """Read one CSV as text columns, after checking it is a readable, non-empty, rectangular text table.
 
@@ -200,9 +204,9 @@ def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.Da
     path = Path(path)
     where = f"{role} file {str(path)!r}"
     if not path.exists():
-        raise InputError(f"{where} does not exist (config data.{role}){_other_csvs(path)}")
+        raise InputError(f"{where} does not exist{_config_entry(role)}{_other_csvs(path)}")
     if path.is_dir():
-        raise InputError(f"{where} is a folder, not a CSV file (config data.{role})")
+        raise InputError(f"{where} is a folder, not a CSV file{_config_entry(role)}")
     text = _decode(path.read_bytes(), where, fmt)
     if not text.strip():
         raise InputError(f"{where} is empty: no header and no rows")
@@ -395,6 +399,13 @@ def load_matched(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.Dat
     matched = load_table(path, "matched", numeric, fmt,
                          _config_keys(columns, "matched_simulated", "matched_measured"))
     return _numeric_extras(matched, numeric, fmt)
+
+
+def load_whatif(path, inputs, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
+    """Settings to ask the frozen models about: the configured inputs, any other columns kept."""
+    inputs = list(inputs)
+    whatif = load_table(path, "what-if", inputs, fmt, {name: "columns.inputs" for name in inputs})
+    return _numeric_extras(whatif, inputs, fmt)
 
 
 def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.DataFrame:

@@ -121,8 +121,8 @@ def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, ca
 
 @dataclass
 class Evaluation:
-    """The fitted extension and its predictions: final models everywhere (``production``) and, for
-    scoring, out-of-fold values on the in-support rows (``scored``), plus the matched cases."""
+    """The fitted extension and its predictions: final models everywhere and, for scoring, out-of-fold
+    values on the in-support rows (``scored``; the ``*_oof`` columns of ``production``), plus the matched cases."""
 
     models: Models
     production: pd.DataFrame
@@ -156,8 +156,10 @@ def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataF
     matched_predictions = {"surrogate": surrogate_m, "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
                            "extended": extended_m,
                            "extended_hybrid": extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float))}
-    return Evaluation(models, pd.DataFrame({"pred_extended": extended, "pred_extended_hybrid": extended_hybrid}),
-                      scored, matched_predictions)
+    predictions = pd.DataFrame({"pred_extended": extended, "pred_extended_hybrid": extended_hybrid,
+                                "pred_extended_oof": scored["extended"],
+                                "pred_extended_hybrid_oof": scored["extended_hybrid"]})
+    return Evaluation(models, predictions, scored, matched_predictions)
 
 
 def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched_measured,

@@ -7,6 +7,40 @@ from sklearn.neighbors import NearestNeighbors
 from sklearn.utils.validation import check_is_fitted
 
 
+class InputColumnsError(ValueError):
+    """A frame given to a fitted model lacks input columns the model was fitted on."""
+
+
+def remember_inputs(estimator, X) -> None:
+    """Record the input column names when fitted on a table (scikit-learn's ``feature_names_in_``)."""
+    if hasattr(X, "columns"):
+        estimator.feature_names_in_ = np.asarray([str(name) for name in X.columns], dtype=object)
+
+
+def input_names(estimator) -> list[str] | None:
+    names = getattr(estimator, "feature_names_in_", None)
+    return None if names is None else [str(name) for name in names]
+
+
+def input_matrix(estimator, X) -> np.ndarray:
+    """The inputs as a float matrix, columns taken by name when both the model and ``X`` have names.
+
+    A table with the columns in another order gives the same answer; a table
+    without a column the model was fitted on is an error, never a silent shift.
+    """
+    names = input_names(estimator)
+    if names is not None and hasattr(X, "columns"):
+        missing = [name for name in names if name not in X.columns]
+        if missing:
+            raise InputColumnsError(f"no input column {', '.join(map(repr, missing))}; "
+                                    f"the model was fitted on {', '.join(names)}")
+        X = X[names]
+    X = np.asarray(X, float)
+    if X.ndim != 2 or X.shape[1] != estimator.n_features_in_:
+        raise InputColumnsError(f"{X.shape[-1]} input columns given, the model was fitted on {estimator.n_features_in_}")
+    return X
+
+
 class DoEStandardizer(TransformerMixin, BaseEstimator):
     """z = (x - mean) / std with the statistics of the data it is fitted on (the DoE).
 
@@ -14,6 +48,7 @@ class DoEStandardizer(TransformerMixin, BaseEstimator):
     """
 
     def fit(self, X, y=None):
+        remember_inputs(self, X)
         X = np.asarray(X, float)
         self.mean_ = X.mean(axis=0)
         self.scale_ = X.std(axis=0, ddof=1) if len(X) > 1 else np.ones(X.shape[1])
@@ -24,10 +59,10 @@ class DoEStandardizer(TransformerMixin, BaseEstimator):
 
     def transform(self, X):
         check_is_fitted(self, "mean_")
-        return (np.asarray(X, float) - self.mean_) / self.scale_
+        return (input_matrix(self, X) - self.mean_) / self.scale_
 
     def to_dict(self) -> dict:
-        return {"mean": self.mean_.tolist(), "std": self.scale_.tolist()}
+        return {"inputs": input_names(self), "mean": self.mean_.tolist(), "std": self.scale_.tolist()}
 
     @classmethod
     def from_dict(cls, data: dict) -> "DoEStandardizer":
@@ -35,6 +70,7 @@ class DoEStandardizer(TransformerMixin, BaseEstimator):
         standardizer.mean_ = np.asarray(data["mean"], float)
         standardizer.scale_ = np.asarray(data["std"], float)
         standardizer.n_features_in_ = len(standardizer.mean_)
+        restore_inputs(standardizer, data)
         return standardizer
 
 
@@ -54,17 +90,17 @@ class KNNSupportGate(BaseEstimator):
 
     def fit(self, X, y=None):
         """Fit on the DoE inputs; a given, already fitted ``standardizer`` is used as it is."""
-        X = np.asarray(X, float)
         if len(X) <= self.k:
             raise ValueError(f"the kNN gate needs more than k={self.k} DoE rows, got {len(X)}")
         self.standardizer_ = self.standardizer if self.standardizer is not None else DoEStandardizer().fit(X)
         self.reference_ = self.standardizer_.transform(X)
+        remember_inputs(self, X)
         self._index = NearestNeighbors(n_neighbors=self.k).fit(self.reference_)
         # k+1 neighbours of each DoE point: the first is the point itself (leave-one-out)
         distances, _ = NearestNeighbors(n_neighbors=self.k + 1).fit(self.reference_).kneighbors(self.reference_)
         self.doe_distances_ = distances[:, 1:].mean(axis=1)
         self.threshold_ = float(np.percentile(self.doe_distances_, self.percentile))
-        self.n_features_in_ = X.shape[1]
+        self.n_features_in_ = self.reference_.shape[1]
         return self
 
     def distance(self, X) -> np.ndarray:
@@ -76,7 +112,7 @@ class KNNSupportGate(BaseEstimator):
         return self.distance(X) <= self.threshold_
 
     def to_dict(self) -> dict:
-        return {"k": self.k, "percentile": self.percentile, "threshold": self.threshold_,
+        return {"inputs": input_names(self), "k": self.k, "percentile": self.percentile, "threshold": self.threshold_,
                 "standardizer": self.standardizer_.to_dict(), "reference": self.reference_.tolist()}
 
     @classmethod
@@ -87,4 +123,13 @@ class KNNSupportGate(BaseEstimator):
         gate._index = NearestNeighbors(n_neighbors=gate.k).fit(gate.reference_)
         gate.threshold_ = float(data["threshold"])
         gate.n_features_in_ = gate.reference_.shape[1]
+        restore_inputs(gate, data)
         return gate
+
+
+def restore_inputs(estimator, data: dict) -> None:
+    names = data.get("inputs")
+    if names:
+        if len(names) != estimator.n_features_in_:
+            raise ValueError(f"model file lists {len(names)} inputs for {estimator.n_features_in_} columns")
+        estimator.feature_names_in_ = np.asarray(names, dtype=object)

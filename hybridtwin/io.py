@@ -33,9 +33,11 @@ def atomic_path(path: str | os.PathLike):
         raise
 
 
-def write_csv(frame: pd.DataFrame, path, float_format: str = FLOAT_FORMAT) -> None:
+def write_csv(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORMAT, sep: str = ",",
+              decimal: str = ".") -> None:
+    """``float_format=None`` writes each float with the digits that read back to the same value."""
     with atomic_path(path) as temporary:
-        frame.to_csv(temporary, index=False, float_format=float_format, lineterminator="\n")
+        frame.to_csv(temporary, index=False, float_format=float_format, lineterminator="\n", sep=sep, decimal=decimal)
 
 
 def _plain(value):

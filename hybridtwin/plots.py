@@ -111,3 +111,25 @@ def placeholder(text: str):
     axis.text(0.5, 0.5, text, ha="center", va="center", wrap=True)
     axis.set_axis_off()
     return figure
+
+
+def prediction_intervals(distance, error, region, half_width: dict[str, float], coverage: dict[str, float],
+                         threshold: float, level: float, unit: str = "mm"):
+    """Errors of the recommended prediction against the distance to the DoE, with each region's interval."""
+    figure, axis = plt.subplots(figsize=(7, 4))
+    distance, error, region = np.asarray(distance, float), np.asarray(error, float), np.asarray(region, object)
+    for index, name in enumerate(sorted(half_width)):
+        rows = region == name
+        if not rows.any():
+            continue
+        low, high = float(distance[rows].min()), float(distance[rows].max())
+        color = f"C{index}"
+        axis.scatter(distance[rows], error[rows], s=3, alpha=0.25, color=color)
+        label = f"{name.replace('_', ' ')}: ±{half_width[name]:.2f} {unit}, covers {coverage.get(name, np.nan):.1%}"
+        axis.fill_between([low, high], -half_width[name], half_width[name], color=color, alpha=0.18, label=label)
+    axis.axvline(threshold, color="k", ls="--", lw=1, label=f"support threshold {threshold:.2f}")
+    axis.set(xlabel="mean distance to the k nearest DoE points (DoE-standardized)",
+             ylabel=f"measured − recommended prediction [{unit}]",
+             title=f"{level:.0%} prediction intervals by region (held-out production rows)")
+    axis.legend(fontsize=7, loc="upper left")
+    return figure

@@ -141,10 +141,16 @@ def best_params(study: optuna.Study, space: dict | None = None, n_trials: int | 
     return {name: best.params[name] for name in space}
 
 
-def save_model(model: xgb.XGBRegressor, path) -> None:
-    """XGBoost's own JSON format: loads with xgboost alone, no code runs."""
+def save_model(model: xgb.XGBRegressor, path, inputs=None) -> None:
+    """XGBoost's own JSON format: loads with xgboost alone, no code runs.
+
+    ``inputs`` names the columns the model was fitted on, in order; the file
+    carries them, so a table given later is matched by name.
+    """
     from .io import atomic_path
 
+    if inputs is not None:
+        model.get_booster().feature_names = [str(name) for name in inputs]
     with atomic_path(path) as temporary:
         model.save_model(temporary)
 

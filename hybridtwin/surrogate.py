@@ -12,7 +12,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 from sklearn.utils.validation import check_is_fitted
 
-from .gate import DoEStandardizer
+from .gate import DoEStandardizer, restore_inputs, input_names, remember_inputs
 
 
 class GPRSurrogate(RegressorMixin, BaseEstimator):
@@ -33,12 +33,12 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
                 + WhiteKernel(1e-2, self.noise_bounds))
 
     def fit(self, X, y):
-        X = np.asarray(X, float)
+        remember_inputs(self, X)
         self.standardizer_ = DoEStandardizer().fit(X)
-        self.gpr_ = GaussianProcessRegressor(self._kernel(X.shape[1]), normalize_y=True,
+        self.n_features_in_ = self.standardizer_.n_features_in_
+        self.gpr_ = GaussianProcessRegressor(self._kernel(self.n_features_in_), normalize_y=True,
                                              n_restarts_optimizer=self.n_restarts, random_state=self.random_state)
         self.gpr_.fit(self.standardizer_.transform(X), np.asarray(y, float))
-        self.n_features_in_ = X.shape[1]
         return self
 
     def predict(self, X, return_std: bool = False):
@@ -52,7 +52,7 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
 
     def to_dict(self) -> dict:
         check_is_fitted(self, "gpr_")
-        return {"format": "hybridtwin.GPRSurrogate/1", "params": self.get_params(),
+        return {"format": "hybridtwin.GPRSurrogate/1", "params": self.get_params(), "inputs": input_names(self),
                 "kernel": repr(self.gpr_.kernel_), "theta": self.gpr_.kernel_.theta.tolist(),
                 "standardizer": self.standardizer_.to_dict(),
                 "X_train": self.gpr_.X_train_.tolist(),
@@ -71,4 +71,5 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         model.gpr_ = GaussianProcessRegressor(kernel, normalize_y=True, optimizer=None)
         model.gpr_.fit(X_train, np.asarray(data["y_train"], float))
         model.n_features_in_ = X_train.shape[1]
+        restore_inputs(model, data)
         return model

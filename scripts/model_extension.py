@@ -28,7 +28,7 @@ def main(snakemake):
                                  matched[p.matched_measured], result.matched, truth, noise)
     io.write_csv(table, snakemake.output.table)
     io.write_json(result.models.extension.to_dict(), snakemake.output.extension)
-    residual.save_model(result.models.remainder, snakemake.output.remainder)
+    residual.save_model(result.models.remainder, snakemake.output.remainder, p.inputs)
     io.write_csv(result.production, snakemake.output.predictions)
 
 

@@ -11,7 +11,7 @@ def main(snakemake):
     params = io.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
     model.fit(production.loc[rows, snakemake.params.inputs].to_numpy(float), residuals.loc[rows, "residual_approx"])
-    residual.save_model(model, snakemake.output.model)
+    residual.save_model(model, snakemake.output.model, snakemake.params.inputs)
 
 
 run(snakemake, main)

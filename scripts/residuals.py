@@ -15,7 +15,8 @@ def main(snakemake):
     measured = production[snakemake.params.target].to_numpy(float)
     io.write_csv(pd.DataFrame({"measured": measured, "pred_surrogate": mean, "pred_surrogate_std": std,
                                "residual_approx": measured - mean, "in_support": support["in_support"]}),
-                 snakemake.output.residuals)
+                 # full precision: later rules add to these values, and the frozen predictor must give the same sums
+                 snakemake.output.residuals, float_format=None)
 
 
 run(snakemake, main)

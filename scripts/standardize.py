@@ -11,7 +11,7 @@ def main(snakemake):
     inputs = snakemake.params.inputs
     doe = read_checked(snakemake.input.doe)
     standardizer = DoEStandardizer().fit(doe[inputs])
-    io.write_json({"columns": inputs, **standardizer.to_dict()}, snakemake.output.model)
+    io.write_json(standardizer.to_dict(), snakemake.output.model)
     io.write_csv(pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
                  snakemake.output.table)
 

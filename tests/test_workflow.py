@@ -7,6 +7,7 @@ first folder with changed matched cases, which must not move any trained model.
 import filecmp
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -226,3 +227,136 @@ def test_two_tuning_workers_lose_no_trials(tmp_path):
     assert [t.number for t in trials] == list(range(len(trials))), "no trial number lost"
     finished = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     assert all(t.state in finished for t in trials), "every trial of both workers finished"
+
+
+def planned_rules(workdir, config) -> set[str]:
+    """The rules a dry run would run."""
+    dry = snakemake(workdir, "-n", config=config)
+    return set(re.findall(r"^(?:local)?rule (\w+):", dry.stdout, re.M))
+
+
+def test_a_config_with_its_keys_in_another_order_reruns_nothing(run_dir, tmp_path):
+    def reversed_keys(value):
+        return {key: reversed_keys(value[key]) for key in reversed(value)} if isinstance(value, dict) else value
+
+    config = tmp_path / "config.yaml"
+    config.write_text(yaml.safe_dump(reversed_keys(yaml.safe_load(open(TEST_CONFIG))), sort_keys=False))
+    assert planned_rules(run_dir, config) == set()
+
+
+# ---- the frozen predictor (what-if questions) on the run's models ----
+
+SHARED_WITH_PRODUCTION = ("in_support", "knn_distance", "pred_surrogate", "pred_hybrid", "pred_hybrid_gated",
+                          "pred_hybrid_unfiltered", "pred_extended", "pred_extended_hybrid")
+
+
+def _as_written(frame: pd.DataFrame, columns, path) -> pd.DataFrame:
+    """Columns as the workflow writes them (io.write_csv's float format), read back as text."""
+    io.write_csv(frame[list(columns)], path)
+    return pd.read_csv(path, dtype=str)
+
+
+def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
+    from hybridtwin import Predictor
+
+    predictor = Predictor.load(run_dir / "results/models")
+    production = pd.read_csv(run_dir / "results/demo/production.csv")
+    answers = predictor.predict(production)
+    written = pd.read_csv(run_dir / "results/predictions/production.csv", dtype=str)
+    pd.testing.assert_frame_equal(_as_written(answers, SHARED_WITH_PRODUCTION, tmp_path / "answers.csv"), written[list(SHARED_WITH_PRODUCTION)])
+    # the input's rows and columns come back first, in their order
+    assert list(answers.columns[:production.shape[1]]) == list(production.columns)
+    pd.testing.assert_frame_equal(answers[production.columns], production)
+    # columns in another order give the same answers: they are taken by name
+    shuffled = predictor.predict(production[production.columns[::-1]])
+    pd.testing.assert_frame_equal(shuffled[answers.columns], answers)
+
+
+def test_every_model_file_names_its_inputs(run_dir):
+    inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
+    models = run_dir / "results/models"
+    for name in ("surrogate_gpr.json", "support_gate.json", "doe_standardization.json", "predictor.json"):
+        assert io.read_json(models / name)["inputs"] == inputs, name
+    for name in ("residual_xgb_filtered.json", "residual_xgb_unfiltered.json", "residual_xgb_extended.json"):
+        booster = xgb.Booster()
+        booster.load_model(models / name)
+        assert booster.feature_names == inputs, name
+
+
+def test_a_setting_beyond_the_doe_range_is_out_of_the_domain_even_inside_the_gate(run_dir):
+    from hybridtwin import Predictor
+
+    predictor = Predictor.load(run_dir / "results/models")
+    doe = pd.read_csv(run_dir / "results/data/doe.csv")
+    row = doe[predictor.inputs].median().to_frame().T
+    hotter = row.assign(die_temp_c=doe["die_temp_c"].max() + 0.5)
+    answers = predictor.predict(pd.concat([row, hotter], ignore_index=True))
+    assert answers["in_domain"].tolist() == [True, False]
+    assert answers.loc[1, "in_support"]  # the gate alone lets it pass
+    assert answers.loc[1, "region"] != "in_support"
+    assert answers.loc[1, "outside_doe_range"].startswith("die_temp_c 0.5 above the DoE's max")
+    assert (answers["pred_lower"] < answers["pred_recommended"]).all()
+    assert (answers["pred_recommended"] < answers["pred_upper"]).all()
+
+
+def _cli(*args, cwd):
+    return run_command(["hybridtwin", "predict", *map(str, args)], timeout=120, cwd=cwd,
+                       env={"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", "/tmp")})
+
+
+def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
+    from hybridtwin import Predictor
+
+    settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:25]
+    settings.to_csv(tmp_path / "new.csv", index=False)
+    result = _cli(tmp_path / "new.csv", "--models", run_dir / "results/models", "-o", tmp_path / "out.csv",
+                  "--level", "0.8", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    answers = pd.read_csv(tmp_path / "out.csv")
+    expected = Predictor.load(run_dir / "results/models").predict(settings, level=0.8)
+    assert answers["recommended_model"].tolist() == expected["recommended_model"].tolist()
+    assert np.allclose(answers["pred_upper"], expected["pred_upper"], rtol=1e-7)
+    assert (answers["interval_level"] == 0.8).all()
+    one = {name: settings.loc[0, name] for name in yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]}
+    result = _cli("--models", run_dir / "results/models", *[f"--set={k}={v}" for k, v in one.items()], cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert f"{expected.loc[0, 'pred_recommended']:.6g}"[:6] in result.stdout
+
+
+@pytest.mark.parametrize("fault, expected", [
+    ("missing", ["what-if file", "no column 'rp02_mpa'", "columns.inputs"]),
+    ("text", ["what-if file", "column 'die_temp_c'", "row 3 (line 4)", "'warm'", "not a number"]),
+    ("decimal_comma", ["what-if file", "column 'thickness_mm'", "row 1 (line 2)", "decimal comma", "csv.decimal"]),
+])
+def test_cli_bad_input_gets_the_workflows_messages(run_dir, tmp_path, fault, expected):
+    settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:5].astype(object)
+    if fault == "missing":
+        settings = settings.drop(columns="rp02_mpa")
+    elif fault == "text":
+        settings.loc[2, "die_temp_c"] = "warm"
+    else:
+        settings["thickness_mm"] = [f"{value:.3f}".replace(".", ",") for value in settings["thickness_mm"]]
+    path = tmp_path / "bad.csv"
+    settings.to_csv(path, index=False)  # a value "0,752" is quoted: a decimal comma in a comma-separated file
+    result = _cli(path, "--models", run_dir / "results/models", "-o", tmp_path / "out.csv", cwd=tmp_path)
+    assert result.returncode == 1
+    assert "Traceback" not in result.stderr
+    for text in expected:
+        assert text in result.stderr, result.stderr
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_whatif_key_adds_one_rule_and_its_answers_are_the_clis(run_dir, tmp_path):
+    workdir = tmp_path / "whatif"
+    shutil.copytree(run_dir, workdir, symlinks=True)
+    settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[100:140]
+    settings.to_csv(workdir / "settings.csv", index=False)
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config["whatif"] = "settings.csv"
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config))
+    assert planned_rules(workdir, workdir / "config.yaml") == {"whatif", "all"}
+    snakemake(workdir, config=workdir / "config.yaml")
+    result = _cli(workdir / "settings.csv", "--models", workdir / "results/models", "-o", tmp_path / "cli.csv",
+                  cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (workdir / "results/predictions/whatif.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()

@@ -2,6 +2,19 @@
 import hashlib
 from pathlib import Path
 
+
+def sorted_keys(value):
+    if isinstance(value, dict):
+        return {key: sorted_keys(value[key]) for key in sorted(value)}
+    return value
+
+
+# Rules' params come from the config: with its keys in one order, reordering the keys of a
+# config file (or writing it with another tool) reruns nothing.
+_canonical = sorted_keys(config)
+config.clear()
+config.update(_canonical)
+
 INPUTS = list(config["columns"]["inputs"])
 TARGET = config["columns"]["target"]
 SEED = config["seed"]
@@ -34,7 +47,9 @@ def final_outputs():
         [f"{TABLES}/{name}.csv" for name in tables]
         + [f"{FIGURES}/{name}.png" for name in figures]
         + ["results/predictions/production.csv", "results/synthetic/doe_corrected.csv",
-           "results/synthetic/support_samples.csv", "results/diagnosis.md"]
+           "results/synthetic/support_samples.csv", "results/diagnosis.md",
+           f"{TABLES}/prediction_intervals.csv", f"{MODELS}/predictor.json"]
+        + (["results/predictions/whatif.csv"] if config.get("whatif") else [])
     )
 
 

@@ -1,0 +1,288 @@
+"""Prediction intervals and the recommended model, per region of the input space.
+
+Errors grow away from the DoE, so one interval width for every row would be
+too wide inside the support and too narrow far outside it. The rows are put in
+regions: in support, and out of support in bins of the kNN distance to the DoE
+(a row inside the gate but beyond the DoE's range in some input counts as out
+of support, nearest bin). In each region:
+
+- the **recommended model** is the one with the lowest RMSE on the calibration
+  rows (honest predictions only: out-of-fold inside the support, models never
+  trained on the row outside);
+- its **interval** is split-conformal (Mondrian, by region; ``crepes``) on the
+  same calibration rows' absolute errors.
+
+Calibration and test rows are alternating blocks of consecutive production
+rows (a plant's log is in time order), so a test row's neighbours in time are
+not in the calibration set; the coverage table is computed on the test rows only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from crepes import ConformalRegressor
+
+from .metrics import rmse
+
+IN_SUPPORT = "in_support"
+# the models a row's prediction can come from; the unfiltered hybrid trains on out-of-support rows,
+# so its errors there are those of random folds through the very campaigns it learnt: reported, not recommended
+RECOMMENDABLE = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid")
+MIN_CALIBRATION_ROWS = 100
+MAX_CALIBRATION_ROWS = 5000
+
+
+def out_of_support_region(index: int) -> str:
+    return f"out_of_support_{index}"
+
+
+def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Per model, the predictions no row was trained on (columns of results/predictions/production.csv)."""
+    inside = predictions["in_support"].astype(bool).to_numpy()
+    surrogate = predictions["pred_surrogate"].to_numpy(float)
+    honest = {"surrogate": surrogate,
+              "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
+              "hybrid": predictions["pred_hybrid_oof"].to_numpy(float),
+              "hybrid_unfiltered": predictions["pred_hybrid_unfiltered_oof"].to_numpy(float)}
+    for model in ("extended", "extended_hybrid"):
+        if f"pred_{model}_oof" in predictions:
+            honest[model] = predictions[f"pred_{model}_oof"].to_numpy(float)
+    return honest
+
+
+def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> pd.DataFrame:
+    """How far each row lies beyond the DoE's range, per input, in the input's own unit (0 inside)."""
+    beyond = {}
+    for name, (low, high) in doe_range.items():
+        values = frame[name].to_numpy(float)
+        beyond[name] = np.where(values > high, values - high, np.where(values < low, values - low, 0.0))
+    return pd.DataFrame(beyond, index=frame.index)
+
+
+def describe_outside(beyond: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> list[str]:
+    """Per row, e.g. 'die_temp_c 4.2 above the DoE's max 55' ('' when every input is in range)."""
+    texts = [[] for _ in range(len(beyond))]
+    for name in beyond.columns:
+        low, high = doe_range[name]
+        for i in np.flatnonzero(beyond[name].to_numpy() != 0):
+            by = float(beyond[name].iloc[i])
+            side = f"above the DoE's max {high:.6g}" if by > 0 else f"below the DoE's min {low:.6g}"
+            texts[i].append(f"{name} {abs(by):.4g} {side}")
+    return ["; ".join(parts) for parts in texts]
+
+
+def distance_edges(distance_out: np.ndarray, n_bins: int) -> list[float]:
+    """Inner edges of equal-count distance bins over the out-of-support calibration rows.
+
+    Fewer bins when there are too few rows for each to hold ``MIN_CALIBRATION_ROWS``.
+    """
+    n_bins = max(1, min(n_bins, len(distance_out) // MIN_CALIBRATION_ROWS))
+    if n_bins == 1:
+        return []
+    edges = np.quantile(np.asarray(distance_out, float), np.arange(1, n_bins) / n_bins)
+    return [float(edge) for edge in np.unique(edges)]
+
+
+def regions(in_support, beyond_range, distance, edges) -> np.ndarray:
+    """Region label per row: 'in_support' or 'out_of_support_<bin>' (bins from 1, nearest first)."""
+    inside = np.asarray(in_support, bool) & ~np.asarray(beyond_range, bool)
+    bins = np.searchsorted(np.asarray(edges, float), np.asarray(distance, float), side="right") + 1
+    labels = np.array([out_of_support_region(b) for b in bins], dtype=object)
+    labels[inside] = IN_SUPPORT
+    return labels
+
+
+def calibration_rows(n_rows: int, n_blocks: int) -> np.ndarray:
+    """True for calibration rows: the even ones of ``n_blocks`` blocks of consecutive rows."""
+    block = np.arange(n_rows) * n_blocks // max(n_rows, 1)
+    return block % 2 == 0
+
+
+def _subsample(indices: np.ndarray, limit: int, seed: int) -> np.ndarray:
+    if len(indices) <= limit:
+        return indices
+    return np.sort(np.random.default_rng(seed).choice(indices, limit, replace=False))
+
+
+class RegionIntervals:
+    """Mondrian split-conformal intervals of several models, with the recommended model per region.
+
+    ``calibration[model][region]`` holds that model's absolute errors on the
+    region's calibration rows; stored as such (JSON), refitted with crepes on load.
+    """
+
+    def __init__(self, calibration: dict[str, dict[str, list[float]]], recommended: dict[str, str],
+                 edges: list[float], max_distance: float | None):
+        self.calibration = calibration
+        self.recommended = recommended
+        self.edges = list(edges)
+        self.max_distance = max_distance
+        self._conformal = {}
+        for model, per_region in calibration.items():
+            labels = np.concatenate([[region] * len(errors) for region, errors in per_region.items()]).astype(object)
+            errors = np.concatenate([np.asarray(errors, float) for errors in per_region.values()])
+            self._conformal[model] = ConformalRegressor().fit(errors, bins=labels)
+
+    @classmethod
+    def fit(cls, measured, honest: dict[str, np.ndarray], region: np.ndarray, calibration: np.ndarray,
+            edges: list[float], distance=None, seed: int = 0) -> "RegionIntervals":
+        measured = np.asarray(measured, float)
+        region = np.asarray(region, object)
+        table, recommended = {}, {}
+        for name in sorted(set(region[calibration])):
+            rows = _subsample(np.flatnonzero(calibration & (region == name)), MAX_CALIBRATION_ROWS, seed)
+            scores = {}
+            for model, prediction in honest.items():
+                errors = np.abs(measured[rows] - prediction[rows])
+                table.setdefault(model, {})[name] = np.round(errors, 6).tolist()
+                if model in RECOMMENDABLE:
+                    scores[model] = rmse(measured[rows], prediction[rows])
+            recommended[name] = min(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
+        outside = calibration & (region != IN_SUPPORT)
+        max_distance = (float(np.max(np.asarray(distance, float)[outside]))
+                        if outside.any() and distance is not None else None)
+        return cls(table, recommended, edges, max_distance)
+
+    @property
+    def regions(self) -> list[str]:
+        return sorted(self.recommended)
+
+    def interval(self, model: str, prediction, region, level: float) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds at ``level``; NaN in a region without calibration rows."""
+        prediction = np.asarray(prediction, float)
+        region = np.asarray(region, object)
+        lower = np.full(len(prediction), np.nan)
+        upper = np.full(len(prediction), np.nan)
+        known = np.isin(region, self.regions) & np.isfinite(prediction)
+        if known.any():
+            bounds = self._conformal[model].predict_int(prediction[known], bins=region[known], confidence=level)
+            lower[known], upper[known] = bounds[:, 0], bounds[:, 1]
+        return lower, upper
+
+    def recommend(self, region) -> np.ndarray:
+        """The recommended model's name per row; the paper's gated hybrid where a region has no calibration."""
+        return np.array([self.recommended.get(r, "hybrid_gated") for r in region], dtype=object)
+
+    def to_dict(self) -> dict:
+        return {"calibration": self.calibration, "recommended": self.recommended, "distance_edges": self.edges,
+                "max_calibrated_distance": self.max_distance}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "RegionIntervals":
+        return cls(data["calibration"], data["recommended"], data["distance_edges"], data["max_calibrated_distance"])
+
+
+def recommended_prediction(intervals: RegionIntervals, predictions: dict[str, np.ndarray], region,
+                           level: float) -> pd.DataFrame:
+    """pred_recommended, recommended_model, pred_lower, pred_upper per row."""
+    chosen = intervals.recommend(region)
+    n = len(chosen)
+    out = pd.DataFrame({"pred_recommended": np.full(n, np.nan), "recommended_model": chosen,
+                        "pred_lower": np.full(n, np.nan), "pred_upper": np.full(n, np.nan)})
+    region = np.asarray(region, object)
+    for model in sorted(set(chosen)):
+        rows = np.flatnonzero(chosen == model)
+        lower, upper = intervals.interval(model, predictions[model][rows], region[rows], level)
+        out.loc[rows, "pred_recommended"] = predictions[model][rows]
+        out.loc[rows, "pred_lower"] = lower
+        out.loc[rows, "pred_upper"] = upper
+    return out
+
+
+def _region_label(name: str, edges: list[float], threshold: float) -> str:
+    if name == IN_SUPPORT:
+        return "in support"
+    index = int(name.rsplit("_", 1)[1])
+    low = edges[index - 2] if index >= 2 else None
+    high = edges[index - 1] if index - 1 < len(edges) else None
+    if low is None and high is None:
+        return "out of support (every distance)"
+    if low is None:
+        return f"out of support, distance up to {high:.3g} (threshold {threshold:.3g})"
+    if high is None:
+        return f"out of support, distance above {low:.3g}"
+    return f"out of support, distance {low:.3g} to {high:.3g}"
+
+
+def _bounds(intervals: RegionIntervals, honest: dict[str, np.ndarray], labels: np.ndarray, rows: np.ndarray,
+            model: str, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Prediction and bounds of one model, or of the recommended one, on ``rows``."""
+    if model == "recommended":
+        picked = recommended_prediction(intervals, {m: p[rows] for m, p in honest.items()}, labels[rows], level)
+        return (picked["pred_recommended"].to_numpy(float), picked["pred_lower"].to_numpy(float),
+                picked["pred_upper"].to_numpy(float))
+    lower, upper = intervals.interval(model, honest[model][rows], labels[rows], level)
+    return honest[model][rows], lower, upper
+
+
+def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration: np.ndarray, edges: list[float],
+                   threshold: float, level: float, truth=None, seed: int = 0) -> pd.DataFrame:
+    """prediction_intervals.csv: on the test rows, per region and model, coverage and mean width.
+
+    Two calibrations are compared: by region (what the predictor uses) and one pool of all
+    calibration rows. ``recommended`` is the model the predictor picks in each row's region.
+    """
+    measured = np.asarray(measured, float)
+    region = np.asarray(region, object)
+    pooled_labels = np.full(len(region), "all", dtype=object)
+    methods = {"by_region": (RegionIntervals.fit(measured, honest, region, calibration, edges, seed=seed), region),
+               "pooled": (RegionIntervals.fit(measured, honest, pooled_labels, calibration, [], seed=seed),
+                          pooled_labels)}
+    test = ~calibration
+    rows = []
+    for name in [*methods["by_region"][0].regions, "all"]:
+        idx = np.flatnonzero(test & ((region == name) if name != "all" else True))
+        if not len(idx):
+            continue
+        label = _region_label(name, edges, threshold) if name != "all" else "all production rows"
+        for model in [*honest, "recommended"]:
+            for method, (intervals, labels) in methods.items():
+                prediction, lower, upper = _bounds(intervals, honest, labels, idx, model, level)
+                row = {"region": name, "region_label": label, "model": model, "calibration": method,
+                       "nominal_level": level, "n_test": len(idx),
+                       "coverage": float(np.mean((measured[idx] >= lower) & (measured[idx] <= upper))),
+                       "mean_width": float(np.mean(upper - lower)), "rmse_test": rmse(measured[idx], prediction)}
+                if truth is not None:
+                    reference = np.asarray(truth, float)[idx]
+                    row["coverage_truth"] = float(np.mean((reference >= lower) & (reference <= upper)))
+                rows.append(row)
+    table = pd.DataFrame(rows)
+    table["n_calibration"] = table["region"].map(
+        {name: int(np.sum(calibration & (region == name))) for name in set(region)}).fillna(int(calibration.sum()))
+    table["evaluated_on"] = (
+        "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
+        "the model (even blocks); predictions out-of-fold inside the support, models never trained on the row "
+        "outside it; coverage of the measured value" + ("; coverage_truth of the demo's noise-free plant"
+                                                        if truth is not None else ""))
+    return table
+
+
+@dataclass
+class Calibration:
+    """What the prediction_intervals rule computes from a run's production predictions."""
+
+    intervals: RegionIntervals
+    table: pd.DataFrame
+    region: np.ndarray
+    calibration: np.ndarray
+    honest: dict[str, np.ndarray]
+
+
+def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[str, tuple[float, float]],
+              threshold: float, level: float, n_bins: int, n_blocks: int, seed: int, truth=None) -> Calibration:
+    """Regions, intervals and recommended models from results/predictions/production.csv, and their test table."""
+    beyond = (outside_range(inputs, doe_range) != 0).any(axis=1).to_numpy()
+    inside = predictions["in_support"].astype(bool).to_numpy()
+    distance = predictions["knn_distance"].to_numpy(float)
+    calibration = calibration_rows(len(predictions), n_blocks)
+    edges = distance_edges(distance[calibration & ~(inside & ~beyond)], n_bins)
+    region = regions(inside, beyond, distance, edges)
+    honest = honest_predictions(predictions)
+    measured = predictions["measured"].to_numpy(float)
+    fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed)
+    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed)
+    table["recommended"] = [model == "recommended" or fitted.recommended.get(name) == model
+                            for name, model in zip(table["region"], table["model"])]
+    return Calibration(fitted, table, region, calibration, honest)

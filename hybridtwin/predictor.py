@@ -1,0 +1,153 @@
+"""The frozen predictor: what-if questions to the models a workflow run wrote, without the workflow.
+
+    from hybridtwin import Predictor
+    predictor = Predictor.load("results/models")
+    answers = predictor.predict(frame)          # a table with the input columns, by name
+
+Only JSON files are read (the GPR surrogate and the gate in this package's
+format, XGBoost models in XGBoost's own), never a pickle. Every model carries the
+input names it was fitted on and the columns of a table are taken by name, so a
+table with its columns in another order gives the same answers.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import data, intervals, io, residual
+from .extension import DiscrepancyExtension
+from .gate import KNNSupportGate, input_names
+from .surrogate import GPRSurrogate
+
+log = logging.getLogger(__name__)
+
+MANIFEST = "predictor.json"
+# model files of a workflow run, under its models folder
+FILES = {"surrogate": "surrogate_gpr.json", "gate": "support_gate.json",
+         "residual_filtered": "residual_xgb_filtered.json", "residual_unfiltered": "residual_xgb_unfiltered.json",
+         "extension": "extension.json", "remainder": "residual_xgb_extended.json"}
+# columns added to each row, in this order (a contract read by outside tools)
+ANSWER_COLUMNS = ("in_support", "knn_distance", "outside_doe_range", "in_domain", "region",
+                  "pred_surrogate", "pred_surrogate_std", "pred_hybrid_gated", "pred_hybrid", "pred_hybrid_unfiltered",
+                  "pred_extended", "pred_extended_hybrid",
+                  "pred_recommended", "recommended_model", "pred_lower", "pred_upper", "interval_level")
+
+
+def manifest(inputs, target: str, unit: str, csv: dict, doe: pd.DataFrame, region_intervals: intervals.RegionIntervals,
+             level: float, threshold: float) -> dict:
+    """predictor.json: what the predictor needs besides the model files."""
+    return {"format": "hybridtwin.Predictor/1", "inputs": list(inputs), "target": target, "unit": unit,
+            "csv": {"sep": csv.get("sep", ","), "decimal": csv.get("decimal", ".")},
+            "doe_range": {name: [float(doe[name].min()), float(doe[name].max())] for name in inputs},
+            "files": FILES, "level": level, "threshold": threshold, "intervals": region_intervals.to_dict()}
+
+
+def _xgb(path: Path, inputs: list[str]):
+    model = residual.load_model(path)
+    names = model.get_booster().feature_names
+    if names is not None and list(names) != inputs:
+        raise ValueError(f"{path}: fitted on inputs {names}, the predictor's manifest lists {inputs}")
+    return model
+
+
+@dataclass
+class Predictor:
+    inputs: list[str]
+    target: str
+    unit: str
+    csv: data.CsvFormat
+    doe_range: dict[str, tuple[float, float]]
+    surrogate: GPRSurrogate
+    gate: KNNSupportGate
+    residual_filtered: object
+    residual_unfiltered: object
+    extension: DiscrepancyExtension
+    remainder: object
+    intervals: intervals.RegionIntervals
+    level: float
+
+    @classmethod
+    def load(cls, models: str | Path) -> "Predictor":
+        """Load the models a workflow run wrote to ``models`` (its results/models folder)."""
+        folder = Path(models)
+        if not (folder / MANIFEST).exists():
+            raise data.InputError(f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
+                                  "results/models folder of a finished workflow run")
+        spec = io.read_json(folder / MANIFEST)
+        inputs = list(spec["inputs"])
+        files = {key: folder / name for key, name in spec["files"].items()}
+        surrogate = GPRSurrogate.from_dict(io.read_json(files["surrogate"]))
+        gate = KNNSupportGate.from_dict(io.read_json(files["gate"]))
+        for name, model in (("surrogate", surrogate), ("gate", gate)):
+            if input_names(model) is not None and input_names(model) != inputs:
+                raise ValueError(f"{files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}")
+        return cls(inputs=inputs, target=spec["target"], unit=spec["unit"], csv=data.CsvFormat(**spec["csv"]),
+                   doe_range={name: tuple(bounds) for name, bounds in spec["doe_range"].items()},
+                   surrogate=surrogate, gate=gate,
+                   residual_filtered=_xgb(files["residual_filtered"], inputs),
+                   residual_unfiltered=_xgb(files["residual_unfiltered"], inputs),
+                   extension=DiscrepancyExtension.from_dict(io.read_json(files["extension"])),
+                   remainder=_xgb(files["remainder"], inputs),
+                   intervals=intervals.RegionIntervals.from_dict(spec["intervals"]), level=float(spec["level"]))
+
+    def _inputs(self, frame: pd.DataFrame) -> pd.DataFrame:
+        missing = [name for name in self.inputs if name not in frame.columns]
+        if missing:
+            raise data.InputError(f"the what-if table has no input column {', '.join(map(repr, missing))}; "
+                                  f"the models need {', '.join(self.inputs)}")
+        return frame[self.inputs].astype(float)
+
+    def predictions(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:
+        """Every model's prediction per row (the gated hybrid with the workflow's gate)."""
+        X = self._inputs(frame)
+        surrogate, std = self.surrogate.predict(X, return_std=True)
+        inside = self.gate.predict(X)
+        filtered = self.residual_filtered.predict(X)
+        extended = surrogate + self.extension.predict(frame)
+        return {"surrogate": surrogate, "surrogate_std": std, "hybrid_gated": np.where(inside, surrogate + filtered, surrogate),
+                "hybrid": surrogate + filtered, "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
+                "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
+
+    def predict(self, frame: pd.DataFrame, level: float | None = None) -> pd.DataFrame:
+        """The rows of ``frame`` (order and extra columns kept) with the answer columns added."""
+        level = self.level if level is None else float(level)
+        if not 0 < level < 1:
+            raise data.InputError(f"interval level {level} must lie between 0 and 1 (for example 0.9)")
+        X = self._inputs(frame)
+        distance = self.gate.distance(X)
+        in_support = distance <= self.gate.threshold_
+        beyond = intervals.outside_range(X, self.doe_range)
+        beyond_range = (beyond != 0).any(axis=1).to_numpy()
+        region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
+        predictions = self.predictions(frame)
+        answers = {"in_support": in_support, "knn_distance": distance,
+                   "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
+                   "in_domain": in_support & ~beyond_range, "region": region,
+                   **{f"pred_{model}": value for model, value in predictions.items()}}
+        recommended = intervals.recommended_prediction(self.intervals, predictions, region, level)
+        answers.update({column: recommended[column].to_numpy() for column in recommended})
+        answers["interval_level"] = np.full(len(frame), level)
+        out = frame.copy()
+        for column in ANSWER_COLUMNS:
+            if column in out.columns:
+                log.warning("the what-if table's column %r is replaced by the predictor's", column)
+            out[column] = answers[column]
+        if self.intervals.max_distance is not None and np.any(distance > self.intervals.max_distance):
+            log.warning("%d row(s) lie further from the DoE (kNN distance up to %.3g) than any production part the "
+                        "intervals were calibrated on (%.3g): their intervals may be too narrow",
+                        int(np.sum(distance > self.intervals.max_distance)), float(distance.max()),
+                        self.intervals.max_distance)
+        return out
+
+    def read(self, path, fmt: data.CsvFormat | None = None) -> pd.DataFrame:
+        """A what-if CSV read and checked as the workflow reads its inputs."""
+        fmt = fmt or self.csv
+        return data.load_whatif(path, self.inputs, fmt)
+
+    def write(self, answers: pd.DataFrame, path, fmt: data.CsvFormat | None = None) -> None:
+        fmt = fmt or self.csv
+        io.write_csv(answers, path, sep=fmt.sep, decimal=fmt.decimal)

@@ -1,0 +1,102 @@
+"""Prediction intervals by region and the recommended model, on constructed cases with known noise."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin import intervals
+
+LEVEL = 0.9
+Z90 = 1.6449  # two-sided 90% of a standard normal
+
+
+def plant(n=40_000, seed=11):
+    """Rows in time order: a quarter in support (noise 1), the rest out of it at growing distance,
+    where the noise grows with the distance (2 to 4)."""
+    rng = np.random.default_rng(seed)
+    inside = rng.random(n) < 0.25
+    distance = np.where(inside, rng.uniform(0, 1, n), rng.uniform(1, 3, n))
+    sd = np.where(inside, 1.0, distance + 1.0)
+    truth = np.sin(np.arange(n) / 500.0) * 5
+    measured = truth + rng.normal(0, sd)
+    return inside, distance, sd, truth, measured
+
+
+def test_calibration_and_test_rows_alternate_in_blocks_and_never_overlap():
+    calibration = intervals.calibration_rows(1000, 10)
+    assert calibration.sum() == 500
+    assert calibration[:100].all() and not calibration[100:200].any() and calibration[200:300].all()
+    # every test row is a whole block away from the calibration rows of the same block index
+    assert set(np.flatnonzero(calibration)).isdisjoint(np.flatnonzero(~calibration))
+
+
+def test_a_row_inside_the_gate_but_beyond_the_doe_range_is_out_of_support():
+    labels = intervals.regions(in_support=[True, True, False, False], beyond_range=[False, True, False, False],
+                               distance=[0.5, 0.6, 1.5, 2.5], edges=[2.0])
+    assert labels.tolist() == ["in_support", "out_of_support_1", "out_of_support_1", "out_of_support_2"]
+
+
+def test_outside_range_is_in_the_inputs_own_unit_and_named():
+    frame = pd.DataFrame({"die_temp_c": [40.0, 58.5, 10.0], "shim_mm": [0.2, 0.2, 0.2]})
+    doe_range = {"die_temp_c": (15.0, 55.0), "shim_mm": (0.0, 0.6)}
+    beyond = intervals.outside_range(frame, doe_range)
+    assert beyond["die_temp_c"].tolist() == pytest.approx([0.0, 3.5, -5.0])
+    texts = intervals.describe_outside(beyond, doe_range)
+    assert texts == ["", "die_temp_c 3.5 above the DoE's max 55", "die_temp_c 5 below the DoE's min 15"]
+
+
+def test_distance_bins_hold_enough_calibration_rows():
+    assert intervals.distance_edges(np.linspace(1, 2, 250), 4) == pytest.approx([1.5])  # 250 rows: 2 bins of 100+
+    assert intervals.distance_edges(np.linspace(1, 2, 50), 4) == []
+    assert len(intervals.distance_edges(np.linspace(1, 2, 4000), 4)) == 3
+
+
+def test_intervals_by_region_hold_their_level_where_one_pooled_interval_does_not():
+    inside, distance, sd, truth, measured = plant()
+    edges = intervals.distance_edges(distance[~inside], 4)
+    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    calibration = intervals.calibration_rows(len(measured), 20)
+    table = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, truth=truth)
+    by_region = table[(table["model"] == "hybrid") & (table["calibration"] == "by_region") & (table["region"] != "all")]
+    assert len(by_region) == 5
+    assert by_region["coverage"].between(LEVEL - 0.02, LEVEL + 0.02).all(), by_region
+    # in support the noise is 1: the interval is the normal one, not the pooled (wider) one
+    in_support = by_region.set_index("region").loc["in_support"]
+    assert in_support["mean_width"] == pytest.approx(2 * Z90, rel=0.06)
+    pooled = table[(table["model"] == "hybrid") & (table["calibration"] == "pooled") & (table["region"] != "all")]
+    assert pooled.set_index("region").loc["in_support", "coverage"] > LEVEL + 0.05
+    assert pooled.set_index("region").loc["out_of_support_4", "coverage"] < LEVEL - 0.05
+    assert (table["coverage_truth"] >= table["coverage"]).all()  # the noise-free value is easier to cover
+
+
+def test_the_recommended_model_is_the_better_one_in_each_region():
+    inside, distance, sd, truth, measured = plant()
+    rng = np.random.default_rng(5)
+    # "hybrid" is good in support and poor outside; "extended" the other way round
+    honest = {"hybrid": truth + np.where(inside, 0.0, rng.normal(0, 3, len(truth))),
+              "extended": truth + np.where(inside, rng.normal(0, 3, len(truth)), 0.0),
+              "hybrid_unfiltered": truth}  # perfect, but never recommended (it trained out of support)
+    edges = intervals.distance_edges(distance[~inside], 2)
+    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    calibration = intervals.calibration_rows(len(measured), 20)
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, edges, distance)
+    assert fitted.recommended == {"in_support": "hybrid", "out_of_support_1": "extended", "out_of_support_2": "extended"}
+    picked = intervals.recommended_prediction(fitted, honest, region, LEVEL)
+    assert picked["recommended_model"].tolist() == [fitted.recommended[r] for r in region]
+    assert (picked["pred_lower"] < picked["pred_recommended"]).all()
+    assert (picked["pred_upper"] > picked["pred_recommended"]).all()
+    # the stored calibration gives the same intervals after a JSON round trip
+    again = intervals.RegionIntervals.from_dict(fitted.to_dict())
+    repicked = intervals.recommended_prediction(again, honest, region, LEVEL)
+    assert np.allclose(repicked["pred_upper"], picked["pred_upper"], atol=1e-5)
+
+
+def test_a_wider_level_gives_a_wider_interval_and_an_unknown_region_none():
+    inside, distance, sd, truth, measured = plant(n=5000)
+    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, [])
+    calibration = intervals.calibration_rows(len(measured), 10)
+    fitted = intervals.RegionIntervals.fit(measured, {"hybrid": truth}, region, calibration, [], distance)
+    narrow = np.subtract(*fitted.interval("hybrid", truth[:5], region[:5], 0.8)[::-1])
+    wide = np.subtract(*fitted.interval("hybrid", truth[:5], region[:5], 0.95)[::-1])
+    assert (wide > narrow).all()
+    lower, upper = fitted.interval("hybrid", truth[:2], np.array(["out_of_support_9", "in_support"], object), 0.9)
+    assert np.isnan(lower[0]) and np.isfinite(lower[1])

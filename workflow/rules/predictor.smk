@@ -1,0 +1,54 @@
+# The frozen predictor: intervals by region, the recommended model, and what-if answers.
+
+
+rule prediction_intervals:
+    input:
+        unpack(demo_truth_inputs),
+        predictions=rules.production_predictions.output.predictions,
+        production=rules.validate_inputs.output.production,
+        doe=rules.validate_inputs.output.doe,
+        gate=rules.support_gate.output.model,
+    output:
+        manifest=f"{MODELS}/predictor.json",
+        table=report(f"{TABLES}/prediction_intervals.csv", caption="../report/prediction_intervals.rst",
+                     category="7. What-if predictions"),
+        figure=report(f"{FIGURES}/prediction_intervals.png", caption="../report/prediction_intervals_figure.rst",
+                      category="7. What-if predictions"),
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        target=TARGET,
+        unit=config["units"]["target"],
+        csv=config["csv"],
+        seed=SEED,
+        settings=config["intervals"],
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("prediction_intervals"),
+    benchmark:
+        benchmark_of("prediction_intervals")
+    script:
+        "../../scripts/prediction_intervals.py"
+
+
+rule whatif:
+    input:
+        whatif=config.get("whatif") or [],
+        manifest=rules.prediction_intervals.output.manifest,
+        models=[rules.surrogate_fit.output.model, rules.support_gate.output.model,
+                f"{MODELS}/residual_xgb_filtered.json", f"{MODELS}/residual_xgb_unfiltered.json",
+                rules.model_extension.output.extension, rules.model_extension.output.remainder],
+    output:
+        predictions="results/predictions/whatif.csv",
+    params:
+        code=PACKAGE_CODE,
+        level=config["intervals"]["level"],
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("whatif"),
+    benchmark:
+        benchmark_of("whatif")
+    script:
+        "../../scripts/whatif.py"
