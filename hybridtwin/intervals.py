@@ -63,14 +63,18 @@ def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]
 
 def describe_outside(beyond: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> list[str]:
     """Per row, e.g. 'die_temp_c 4.2 above the DoE's max 55' ('' when every input is in range)."""
-    texts = [[] for _ in range(len(beyond))]
-    for name in beyond.columns:
+    values = beyond.to_numpy(float)
+    texts = np.full(len(values), "", dtype=object)
+    for j, name in enumerate(beyond.columns):
+        rows = np.flatnonzero(values[:, j] != 0)
         low, high = doe_range[name]
-        for i in np.flatnonzero(beyond[name].to_numpy() != 0):
-            by = float(beyond[name].iloc[i])
-            side = f"above the DoE's max {high:.6g}" if by > 0 else f"below the DoE's min {low:.6g}"
-            texts[i].append(f"{name} {abs(by):.4g} {side}")
-    return ["; ".join(parts) for parts in texts]
+        for side, mask, bound in ((" above the DoE's max ", values[rows, j] > 0, high),
+                                  (" below the DoE's min ", values[rows, j] < 0, low)):
+            at = rows[mask]
+            amounts = np.array([f"{abs(v):.4g}" for v in values[at, j]], dtype=object)
+            separator = np.where(texts[at] != "", "; ", "").astype(object)
+            texts[at] = texts[at] + separator + f"{name} " + amounts + f"{side}{bound:.6g}"
+    return texts.tolist()
 
 
 def distance_edges(distance_out: np.ndarray, n_bins: int) -> list[float]:

@@ -117,8 +117,30 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
     if done < n_trials:
         # the callback stops every worker sharing the study once enough trials have finished
         study.optimize(objective, n_trials=n_trials - done,
-                       callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED)])
+                       callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED), progress(n_trials)])
     return study
+
+
+def progress(n_trials: int):
+    """An Optuna callback that logs each finished trial with its CV RMSE and the best so far."""
+
+    def report(study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
+        finished = _complete(study)
+        if trial.state == optuna.trial.TrialState.PRUNED:
+            value = trial.intermediate_values[max(trial.intermediate_values)] if trial.intermediate_values else float("nan")
+            outcome = f"stopped early at fold {max(trial.intermediate_values, default=0) + 1} (running CV RMSE {value:.4g})"
+        elif trial.state == optuna.trial.TrialState.COMPLETE:
+            outcome = f"CV RMSE {trial.value:.4g}"
+        else:
+            outcome = trial.state.name.lower()
+        try:
+            best = f"best so far {study.best_value:.4g} (trial {study.best_trial.number})"
+        except ValueError:
+            best = "no complete trial yet"
+        log.info("tuning: trial %d finished, %d of %d: %s; %s", trial.number, min(finished, n_trials), n_trials,
+                 outcome, best)
+
+    return report
 
 
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)

@@ -42,6 +42,9 @@ def test_outside_range_is_in_the_inputs_own_unit_and_named():
     assert beyond["die_temp_c"].tolist() == pytest.approx([0.0, 3.5, -5.0])
     texts = intervals.describe_outside(beyond, doe_range)
     assert texts == ["", "die_temp_c 3.5 above the DoE's max 55", "die_temp_c 5 below the DoE's min 15"]
+    frame.loc[1, "shim_mm"] = 0.75
+    assert intervals.describe_outside(intervals.outside_range(frame, doe_range), doe_range)[1] == (
+        "die_temp_c 3.5 above the DoE's max 55; shim_mm 0.15 above the DoE's max 0.6")
 
 
 def test_distance_bins_hold_enough_calibration_rows():

@@ -1,5 +1,6 @@
 """Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
 import json
+import logging
 import math
 import threading
 from pathlib import Path
@@ -522,3 +523,15 @@ def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(
     assert fit.form.name == expected
     assert is_significant(fit, 1, Settings(), min_effect=0.1) == with_product
     assert diagnosis.forms.FAMILIES[fit.form.name] == ("interaction" if with_product else "additive")
+
+
+def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
+    rng = np.random.default_rng(0)
+    X = rng.random((200, 3))
+    y = X[:, 0] + rng.normal(0, 0.1, 200)
+    space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
+    with caplog.at_level(logging.INFO, logger="hybridtwin.residual"):
+        residual.tune(X, y, n_trials=4, n_folds=3, seed=1, storage=str(tmp_path / "journal.log"), space=space)
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("tuning: trial")]
+    assert [line.split(",")[1].split(":")[0].strip() for line in lines] == [f"{i} of 4" for i in range(1, 5)]
+    assert all("best so far" in line for line in lines)
