@@ -130,7 +130,7 @@ def test_models_load_with_their_own_loaders_and_reproduce_predictions(run_dir):
     assert np.allclose(surrogate, predictions["pred_surrogate"], atol=1e-5)
     booster = xgb.Booster()
     booster.load_model(models / "residual_xgb_filtered.json")
-    residual = booster.predict(xgb.DMatrix(X))
+    residual = booster.predict(xgb.DMatrix(production[inputs]))  # the model checks the column names
     assert np.allclose(surrogate + residual, predictions["pred_hybrid"], atol=1e-4)
     gate = KNNSupportGate.from_dict(io.read_json(models / "support_gate.json"))
     assert (gate.predict(X) == predictions["in_support"].to_numpy()).all()
