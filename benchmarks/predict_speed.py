@@ -44,7 +44,7 @@ def main() -> None:
                            capture_output=True)
             command.append(time.perf_counter() - start)
     print(f"{args.rows:,} rows ({answers['in_support'].mean():.0%} in support), best of {args.repeats}:")
-    print(f"| step | wall time [s] |\n|---|---:|")
+    print("| step | wall time [s] |\n|---|---:|")
     print(f"| Predictor.load + predict (table in memory) | {min(in_memory):.2f} |")
     print(f"| hybridtwin predict NEW.csv -o OUT.csv (fresh process: imports, CSV checks, writing) | {min(command):.2f} |")
 

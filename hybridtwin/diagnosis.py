@@ -509,7 +509,6 @@ def _single_columns_for_pairs(selected: list[Fit], by_name: dict[str, Candidate]
 
 def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):
     """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in, and vice versa?"""
-    by_name = {c.name: c for c in candidates}
     aliases: dict[str, list[str]] = {}
     explained_by: dict[str, str] = {}
     chosen = {s.candidate.name for s in selected}

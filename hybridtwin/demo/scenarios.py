@@ -21,7 +21,7 @@ from ..extension import causes_from_diagnosis, fit_models
 from ..gate import KNNSupportGate
 from ..metrics import rmse
 from ..surrogate import GPRSurrogate
-from .families import FAMILIES, Expected, PlantCase, draw_plant
+from .families import Expected, PlantCase, draw_plant
 
 # A fixed, moderate XGBoost setting stands in for the tuned one to keep scenarios fast.
 SCENARIO_XGB = dict(n_estimators=300, max_depth=5, learning_rate=0.05, subsample=0.8, colsample_bytree=0.8,
