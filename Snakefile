@@ -22,6 +22,7 @@ include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/residual.smk"
 include: "workflow/rules/evaluation.smk"
 include: "workflow/rules/diagnosis.smk"
+include: "workflow/rules/peers.smk"
 include: "workflow/rules/predictor.smk"
 
 

@@ -29,7 +29,9 @@ from .metrics import rmse
 IN_SUPPORT = "in_support"
 # the models a row's prediction can come from; the unfiltered hybrid trains on out-of-support rows,
 # so its errors there are those of random folds through the very campaigns it learnt: reported, not recommended
-RECOMMENDABLE = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid")
+RECOMMENDABLE = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid", "gp_discrepancy", "cokriging",
+                 "stack")
+STACK = "stack"  # a non-negative blend of the other recommendable models, per region
 MIN_CALIBRATION_ROWS = 100
 MAX_CALIBRATION_ROWS = 5000
 
@@ -46,7 +48,7 @@ def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
               "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
               "hybrid": predictions["pred_hybrid_oof"].to_numpy(float),
               "hybrid_unfiltered": predictions["pred_hybrid_unfiltered_oof"].to_numpy(float)}
-    for model in ("extended", "extended_hybrid"):
+    for model in ("extended", "extended_hybrid", "gp_discrepancy", "cokriging"):
         if f"pred_{model}_oof" in predictions:
             honest[model] = predictions[f"pred_{model}_oof"].to_numpy(float)
     return honest
@@ -110,6 +112,32 @@ def _subsample(indices: np.ndarray, limit: int, seed: int) -> np.ndarray:
     return np.sort(np.random.default_rng(seed).choice(indices, limit, replace=False))
 
 
+def stack_weights(measured, predictions: dict[str, np.ndarray], rows: np.ndarray) -> dict[str, float]:
+    """Non-negative least-squares weights of the models' predictions on ``rows``."""
+    from scipy.optimize import nnls
+
+    names = sorted(predictions)
+    weights, _ = nnls(np.column_stack([predictions[m][rows] for m in names]), np.asarray(measured, float)[rows])
+    return {name: float(w) for name, w in zip(names, weights)}
+
+
+def blend(weights: dict[str, float], predictions: dict[str, np.ndarray], rows) -> np.ndarray:
+    return sum((w * predictions[m][rows] for m, w in weights.items()), np.zeros(len(rows)))
+
+
+def _cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarray) -> np.ndarray:
+    """The stack on ``rows``, each half predicted with the weights fitted on the other half (no row scores itself)."""
+    out = np.full(len(measured), np.nan)
+    first, second = rows[:len(rows) // 2], rows[len(rows) // 2:]
+    out[second] = blend(stack_weights(measured, members, first), members, second)
+    out[first] = blend(stack_weights(measured, members, second), members, first)
+    return out
+
+
+def _stack_members(predictions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    return {m: p for m, p in predictions.items() if m in RECOMMENDABLE and m != STACK}
+
+
 class RegionIntervals:
     """Mondrian split-conformal intervals of several models, with the recommended model per region.
 
@@ -118,9 +146,10 @@ class RegionIntervals:
     """
 
     def __init__(self, calibration: dict[str, dict[str, list[float]]], recommended: dict[str, str],
-                 edges: list[float], max_distance: float | None):
+                 edges: list[float], max_distance: float | None, weights: dict[str, dict[str, float]] | None = None):
         self.calibration = calibration
         self.recommended = recommended
+        self.weights = weights or {}
         self.edges = list(edges)
         self.max_distance = max_distance
         self._conformal = {}
@@ -134,20 +163,38 @@ class RegionIntervals:
             edges: list[float], distance=None, seed: int = 0) -> "RegionIntervals":
         measured = np.asarray(measured, float)
         region = np.asarray(region, object)
-        table, recommended = {}, {}
+        table, recommended, weights = {}, {}, {}
+        members = _stack_members(honest)
         for name in sorted(set(region[calibration])):
             rows = _subsample(np.flatnonzero(calibration & (region == name)), MAX_CALIBRATION_ROWS, seed)
+            candidates = dict(honest)
+            complete = rows[np.all([np.isfinite(p[rows]) for p in members.values()], axis=0)] if members else rows[:0]
+            if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
+                weights[name] = stack_weights(measured, members, complete)
+                candidates[STACK] = _cross_fitted_stack(measured, members, complete)
             scores = {}
-            for model, prediction in honest.items():
-                errors = np.abs(measured[rows] - prediction[rows])
-                table.setdefault(model, {})[name] = np.round(errors, 6).tolist()
+            for model, prediction in candidates.items():
+                scored = rows[np.isfinite(prediction[rows])]  # a peer has no honest value on the parts it trained on
+                if not len(scored):
+                    continue
+                table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]), 6).tolist()
                 if model in RECOMMENDABLE:
-                    scores[model] = rmse(measured[rows], prediction[rows])
+                    scores[model] = rmse(measured[scored], prediction[scored])
             recommended[name] = min(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
         outside = calibration & (region != IN_SUPPORT)
         max_distance = (float(np.max(np.asarray(distance, float)[outside]))
                         if outside.any() and distance is not None else None)
-        return cls(table, recommended, edges, max_distance)
+        return cls(table, recommended, edges, max_distance, weights)
+
+    def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
+        """The predictions with the stack added (each row blended with its region's weights; NaN without)."""
+        region = np.asarray(region, object)
+        stacked = np.full(len(region), np.nan)
+        for name, weights in self.weights.items():
+            rows = np.flatnonzero(region == name)
+            if len(rows) and all(m in predictions for m in weights):
+                stacked[rows] = blend(weights, predictions, rows)
+        return {**predictions, STACK: stacked}
 
     @property
     def regions(self) -> list[str]:
@@ -159,7 +206,7 @@ class RegionIntervals:
         region = np.asarray(region, object)
         lower = np.full(len(prediction), np.nan)
         upper = np.full(len(prediction), np.nan)
-        known = np.isin(region, self.regions) & np.isfinite(prediction)
+        known = np.isin(region, list(self.calibration.get(model, {}))) & np.isfinite(prediction)
         if known.any():
             bounds = self._conformal[model].predict_int(prediction[known], bins=region[known], confidence=level)
             lower[known], upper[known] = bounds[:, 0], bounds[:, 1]
@@ -171,11 +218,12 @@ class RegionIntervals:
 
     def to_dict(self) -> dict:
         return {"calibration": self.calibration, "recommended": self.recommended, "distance_edges": self.edges,
-                "max_calibrated_distance": self.max_distance}
+                "max_calibrated_distance": self.max_distance, "stack_weights": self.weights}
 
     @classmethod
     def from_dict(cls, data: dict) -> "RegionIntervals":
-        return cls(data["calibration"], data["recommended"], data["distance_edges"], data["max_calibrated_distance"])
+        return cls(data["calibration"], data["recommended"], data["distance_edges"], data["max_calibrated_distance"],
+                   data.get("stack_weights"))
 
 
 def recommended_prediction(intervals: RegionIntervals, predictions: dict[str, np.ndarray], region,
@@ -210,40 +258,48 @@ def _region_label(name: str, edges: list[float], threshold: float) -> str:
     return f"out of support, distance {low:.3g} to {high:.3g}"
 
 
-def _bounds(intervals: RegionIntervals, honest: dict[str, np.ndarray], labels: np.ndarray, rows: np.ndarray,
+def _bounds(intervals: RegionIntervals, predictions: dict[str, np.ndarray], labels: np.ndarray, rows: np.ndarray,
             model: str, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Prediction and bounds of one model, or of the recommended one, on ``rows``."""
     if model == "recommended":
-        picked = recommended_prediction(intervals, {m: p[rows] for m, p in honest.items()}, labels[rows], level)
+        picked = recommended_prediction(intervals, {m: p[rows] for m, p in predictions.items()}, labels[rows], level)
         return (picked["pred_recommended"].to_numpy(float), picked["pred_lower"].to_numpy(float),
                 picked["pred_upper"].to_numpy(float))
-    lower, upper = intervals.interval(model, honest[model][rows], labels[rows], level)
-    return honest[model][rows], lower, upper
+    lower, upper = intervals.interval(model, predictions[model][rows], labels[rows], level)
+    return predictions[model][rows], lower, upper
 
 
 def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration: np.ndarray, edges: list[float],
                    threshold: float, level: float, truth=None, seed: int = 0) -> pd.DataFrame:
-    """prediction_intervals.csv: on the test rows, per region and model, coverage and mean width.
+    """prediction_intervals.csv: on the test rows, per region and model, coverage, mean width and RMSE.
 
     Two calibrations are compared: by region (what the predictor uses) and one pool of all
     calibration rows. ``recommended`` is the model the predictor picks in each row's region.
+    A model is scored on the test rows where it has an honest prediction (``n_test``).
     """
     measured = np.asarray(measured, float)
     region = np.asarray(region, object)
     pooled_labels = np.full(len(region), "all", dtype=object)
-    methods = {"by_region": (RegionIntervals.fit(measured, honest, region, calibration, edges, seed=seed), region),
-               "pooled": (RegionIntervals.fit(measured, honest, pooled_labels, calibration, [], seed=seed),
-                          pooled_labels)}
+    methods = {}
+    for method, labels, method_edges in (("by_region", region, edges), ("pooled", pooled_labels, [])):
+        fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
+        methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
     test = ~calibration
+    models = [*methods["by_region"][2], "recommended"]
     rows = []
     for name in [*methods["by_region"][0].regions, "all"]:
-        idx = np.flatnonzero(test & ((region == name) if name != "all" else True))
-        if not len(idx):
+        in_region = test & ((region == name) if name != "all" else True)
+        if not in_region.any():
             continue
         label = _region_label(name, edges, threshold) if name != "all" else "all production rows"
-        for model in [*honest, "recommended"]:
-            for method, (intervals, labels) in methods.items():
-                prediction, lower, upper = _bounds(intervals, honest, labels, idx, model, level)
+        for model in models:
+            for method, (intervals, labels, predictions) in methods.items():
+                idx = np.flatnonzero(in_region)
+                prediction, lower, upper = _bounds(intervals, predictions, labels, idx, model, level)
+                ok = np.isfinite(prediction) & np.isfinite(lower)
+                if not ok.any():
+                    continue
+                idx, prediction, lower, upper = idx[ok], prediction[ok], lower[ok], upper[ok]
                 row = {"region": name, "region_label": label, "model": model, "calibration": method,
                        "nominal_level": level, "n_test": len(idx),
                        "coverage": float(np.mean((measured[idx] >= lower) & (measured[idx] <= upper))),
@@ -251,6 +307,7 @@ def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration:
                 if truth is not None:
                     reference = np.asarray(truth, float)[idx]
                     row["coverage_truth"] = float(np.mean((reference >= lower) & (reference <= upper)))
+                    row["rmse_truth_test"] = rmse(reference, prediction)
                 rows.append(row)
     table = pd.DataFrame(rows)
     table["n_calibration"] = table["region"].map(
@@ -258,8 +315,8 @@ def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration:
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out-of-fold inside the support, models never trained on the row "
-        "outside it; coverage of the measured value" + ("; coverage_truth of the demo's noise-free plant"
-                                                        if truth is not None else ""))
+        "outside it; a peer is scored on the rows it did not train on; coverage of the measured value"
+        + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if truth is not None else ""))
     return table
 
 
@@ -271,7 +328,7 @@ class Calibration:
     table: pd.DataFrame
     region: np.ndarray
     calibration: np.ndarray
-    honest: dict[str, np.ndarray]
+    honest: dict[str, np.ndarray]  # with the stack
 
 
 def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[str, tuple[float, float]],
@@ -289,4 +346,4 @@ def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[s
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed)
     table["recommended"] = [model == "recommended" or fitted.recommended.get(name) == model
                             for name, model in zip(table["region"], table["model"])]
-    return Calibration(fitted, table, region, calibration, honest)
+    return Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))

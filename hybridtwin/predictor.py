@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import data, intervals, io, residual
+from . import data, intervals, io, peers, residual
 from .extension import DiscrepancyExtension
 from .gate import KNNSupportGate, input_names
 from .surrogate import GPRSurrogate
@@ -29,11 +29,12 @@ MANIFEST = "predictor.json"
 # model files of a workflow run, under its models folder
 FILES = {"surrogate": "surrogate_gpr.json", "gate": "support_gate.json",
          "residual_filtered": "residual_xgb_filtered.json", "residual_unfiltered": "residual_xgb_unfiltered.json",
-         "extension": "extension.json", "remainder": "residual_xgb_extended.json"}
+         "extension": "extension.json", "remainder": "residual_xgb_extended.json",
+         "gp_discrepancy": "peer_gp_discrepancy.json", "cokriging": "peer_cokriging.json"}
 # columns added to each row, in this order (a contract read by outside tools)
 ANSWER_COLUMNS = ("in_support", "knn_distance", "outside_doe_range", "in_domain", "region",
                   "pred_surrogate", "pred_surrogate_std", "pred_hybrid_gated", "pred_hybrid", "pred_hybrid_unfiltered",
-                  "pred_extended", "pred_extended_hybrid",
+                  "pred_extended", "pred_extended_hybrid", "pred_gp_discrepancy", "pred_cokriging", "pred_stack",
                   "pred_recommended", "recommended_model", "pred_lower", "pred_upper", "interval_level")
 
 
@@ -69,6 +70,7 @@ class Predictor:
     remainder: object
     intervals: intervals.RegionIntervals
     level: float
+    peers: dict  # kind -> fitted peer (GP discrepancy, co-kriging)
 
     @classmethod
     def load(cls, models: str | Path) -> "Predictor":
@@ -92,7 +94,8 @@ class Predictor:
                    residual_unfiltered=_xgb(files["residual_unfiltered"], inputs),
                    extension=DiscrepancyExtension.from_dict(io.read_json(files["extension"])),
                    remainder=_xgb(files["remainder"], inputs),
-                   intervals=intervals.RegionIntervals.from_dict(spec["intervals"]), level=float(spec["level"]))
+                   intervals=intervals.RegionIntervals.from_dict(spec["intervals"]), level=float(spec["level"]),
+                   peers={kind: peers.load_peer(kind, io.read_json(files[kind])) for kind in peers.PEERS})
 
     def _inputs(self, frame: pd.DataFrame) -> pd.DataFrame:
         missing = [name for name in self.inputs if name not in frame.columns]
@@ -108,9 +111,12 @@ class Predictor:
         inside = self.gate.predict(X)
         filtered = self.residual_filtered.predict(X)
         extended = surrogate + self.extension.predict(frame)
-        return {"surrogate": surrogate, "surrogate_std": std, "hybrid_gated": np.where(inside, surrogate + filtered, surrogate),
-                "hybrid": surrogate + filtered, "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
-                "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
+        out = {"surrogate": surrogate, "surrogate_std": std,
+               "hybrid_gated": np.where(inside, surrogate + filtered, surrogate), "hybrid": surrogate + filtered,
+               "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
+               "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
+        out.update({kind: peers.peer_prediction(kind, model, X, surrogate) for kind, model in self.peers.items()})
+        return out
 
     def predict(self, frame: pd.DataFrame, level: float | None = None) -> pd.DataFrame:
         """The rows of ``frame`` (order and extra columns kept) with the answer columns added."""
@@ -123,7 +129,7 @@ class Predictor:
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
-        predictions = self.predictions(frame)
+        predictions = self.intervals.with_stack(self.predictions(frame), region)
         answers = {"in_support": in_support, "knn_distance": distance,
                    "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
                    "in_domain": in_support & ~beyond_range, "region": region,

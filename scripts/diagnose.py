@@ -1,7 +1,6 @@
 """Diagnosis: rank candidate causes of the in-support approximate residuals; a figure per top cause."""
 import logging
 
-import numpy as np
 
 from hybridtwin import diagnosis, io, plots
 from hybridtwin.data import read_checked

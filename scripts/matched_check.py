@@ -1,6 +1,5 @@
 """Step 7: external check on the matched cases -> matched_check.csv, per-case table, Figure 2."""
 import numpy as np
-import pandas as pd
 
 from hybridtwin import io, plots, residual
 from hybridtwin.data import read_checked

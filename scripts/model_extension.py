@@ -1,4 +1,6 @@
 """Extend the physics side with the diagnosed causes; measure the gain in and out of the support."""
+import pandas as pd
+
 from hybridtwin import extension, io, residual
 from hybridtwin.data import read_checked
 from hybridtwin.extension import Cause
@@ -30,6 +32,7 @@ def main(snakemake):
     io.write_json(result.models.extension.to_dict(), snakemake.output.extension)
     residual.save_model(result.models.remainder, snakemake.output.remainder, p.inputs)
     io.write_csv(result.production, snakemake.output.predictions)
+    io.write_csv(pd.DataFrame(result.matched), snakemake.output.matched_predictions, float_format=None)
 
 
 run(snakemake, main)

@@ -1,4 +1,4 @@
-"""results/predictions/production.csv: the hybrid's predictions joined with the extension's, in input order."""
+"""results/predictions/production.csv: the hybrid's predictions joined with the extension's and the peers', in input order."""
 import pandas as pd
 
 from hybridtwin import io
@@ -7,11 +7,12 @@ from hybridtwin.runner import run
 
 
 def main(snakemake):
-    hybrid = read_checked(snakemake.input.hybrid)
-    extension = read_checked(snakemake.input.extension)
-    if len(hybrid) != len(extension):
-        raise RuntimeError(f"{len(hybrid)} hybrid rows but {len(extension)} extension rows")
-    io.write_csv(pd.concat([hybrid, extension], axis=1), snakemake.output.predictions)
+    parts = [read_checked(snakemake.input.hybrid), read_checked(snakemake.input.extension),
+             *(read_checked(path) for path in snakemake.input.peers)]
+    lengths = {len(part) for part in parts}
+    if len(lengths) != 1:
+        raise RuntimeError(f"prediction tables of different lengths: {sorted(lengths)}")
+    io.write_csv(pd.concat(parts, axis=1), snakemake.output.predictions)
 
 
 run(snakemake, main)

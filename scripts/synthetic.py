@@ -1,6 +1,4 @@
 """Step 10: synthetic corrected data, the hybrid on the DoE points and on samples drawn inside the support."""
-import numpy as np
-import pandas as pd
 
 from hybridtwin import io, residual
 from hybridtwin.data import read_checked

@@ -1,7 +1,6 @@
 """Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE."""
 import logging
 
-import pandas as pd
 
 from hybridtwin import io, residual
 from hybridtwin.data import read_checked

@@ -82,7 +82,14 @@ def test_the_recommended_model_is_the_better_one_in_each_region():
     region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
     calibration = intervals.calibration_rows(len(measured), 20)
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, edges, distance)
-    assert fitted.recommended == {"in_support": "hybrid", "out_of_support_1": "extended", "out_of_support_2": "extended"}
+    better = {"in_support": "hybrid", "out_of_support_1": "extended", "out_of_support_2": "extended"}
+    for name, model in better.items():
+        weights = fitted.weights[name]
+        # the stack's weights are non-negative and put (almost) everything on the better model
+        assert min(weights.values()) >= 0 and weights[model] > 0.95 and sum(weights.values()) == pytest.approx(1, abs=0.05)
+        # the recommended model is the better one, or the stack that is all but the better one
+        assert fitted.recommended[name] in (model, "stack"), fitted.recommended
+    honest = fitted.with_stack(honest, region)
     picked = intervals.recommended_prediction(fitted, honest, region, LEVEL)
     assert picked["recommended_model"].tolist() == [fitted.recommended[r] for r in region]
     assert (picked["pred_lower"] < picked["pred_recommended"]).all()

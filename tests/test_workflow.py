@@ -53,8 +53,12 @@ def run_dir(tmp_path_factory):
 def test_every_contracted_output_exists(run_dir):
     results = run_dir / "results"
     for name in ("table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
-                 "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension"):
+                 "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension", "prediction_intervals",
+                 "peer_comparison"):
         assert (results / "tables" / f"{name}.csv").stat().st_size > 0, name
+    comparison = pd.read_csv(results / "tables/peer_comparison.csv")
+    assert {"gp_discrepancy", "cokriging", "stack", "recommended", "hybrid"} <= set(comparison["model"])
+    assert comparison["rmse_truth_out_of_support"].notna().all()
     for name in ("figure2_residual_check", "figure3_error_distributions", "cause_1"):
         assert (results / "figures" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert list((results / "synthetic").glob("*.csv"))
@@ -247,7 +251,8 @@ def test_a_config_with_its_keys_in_another_order_reruns_nothing(run_dir, tmp_pat
 # ---- the frozen predictor (what-if questions) on the run's models ----
 
 SHARED_WITH_PRODUCTION = ("in_support", "knn_distance", "pred_surrogate", "pred_hybrid", "pred_hybrid_gated",
-                          "pred_hybrid_unfiltered", "pred_extended", "pred_extended_hybrid")
+                          "pred_hybrid_unfiltered", "pred_extended", "pred_extended_hybrid", "pred_gp_discrepancy",
+                          "pred_cokriging")
 
 
 def _as_written(frame: pd.DataFrame, columns, path) -> pd.DataFrame:
@@ -275,7 +280,8 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
 def test_every_model_file_names_its_inputs(run_dir):
     inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
     models = run_dir / "results/models"
-    for name in ("surrogate_gpr.json", "support_gate.json", "doe_standardization.json", "predictor.json"):
+    for name in ("surrogate_gpr.json", "support_gate.json", "doe_standardization.json", "predictor.json",
+                 "peer_gp_discrepancy.json", "peer_cokriging.json"):
         assert io.read_json(models / name)["inputs"] == inputs, name
     for name in ("residual_xgb_filtered.json", "residual_xgb_unfiltered.json", "residual_xgb_extended.json"):
         booster = xgb.Booster()

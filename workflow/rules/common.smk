@@ -25,6 +25,7 @@ PACKAGE_CODE = hashlib.sha256(
     b"".join(path.read_bytes() for path in sorted((Path(workflow.main_snakefile).parent / "hybridtwin").rglob("*.py")))
 ).hexdigest()[:16]
 
+PEERS = ["gp_discrepancy", "cokriging"]
 TABLES = "results/tables"
 FIGURES = "results/figures"
 MODELS = "results/models"
@@ -48,7 +49,7 @@ def final_outputs():
         + [f"{FIGURES}/{name}.png" for name in figures]
         + ["results/predictions/production.csv", "results/synthetic/doe_corrected.csv",
            "results/synthetic/support_samples.csv", "results/diagnosis.md",
-           f"{TABLES}/prediction_intervals.csv", f"{MODELS}/predictor.json"]
+           f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json"]
         + (["results/predictions/whatif.csv"] if config.get("whatif") else [])
     )
 

@@ -51,6 +51,7 @@ rule model_extension:
         extension=f"{MODELS}/extension.json",
         remainder=f"{MODELS}/residual_xgb_extended.json",
         predictions="results/predictions/extension.csv",
+        matched_predictions="results/predictions/matched_models.csv",
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -72,6 +73,7 @@ rule production_predictions:
     input:
         hybrid=rules.predict_production.output.predictions,
         extension=rules.model_extension.output.predictions,
+        peers=expand("results/peers/{peer}_production.csv", peer=PEERS),
     output:
         predictions="results/predictions/production.csv",
     params:

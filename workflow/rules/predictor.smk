@@ -8,8 +8,15 @@ rule prediction_intervals:
         production=rules.validate_inputs.output.production,
         doe=rules.validate_inputs.output.doe,
         gate=rules.support_gate.output.model,
+        matched=rules.validate_inputs.output.matched,
+        matched_models=rules.model_extension.output.matched_predictions,
+        matched_cases=rules.matched_check.output.cases,
+        peers_matched=expand("results/peers/{peer}_matched.csv", peer=PEERS),
+        peers_summary=expand("results/peers/{peer}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
+        comparison=report(f"{TABLES}/peer_comparison.csv", caption="../report/peer_comparison.rst",
+                          category="7. What-if predictions"),
         table=report(f"{TABLES}/prediction_intervals.csv", caption="../report/prediction_intervals.rst",
                      category="7. What-if predictions"),
         figure=report(f"{FIGURES}/prediction_intervals.png", caption="../report/prediction_intervals_figure.rst",
@@ -20,6 +27,7 @@ rule prediction_intervals:
         target=TARGET,
         unit=config["units"]["target"],
         csv=config["csv"],
+        matched_measured=config["columns"]["matched_measured"],
         seed=SEED,
         settings=config["intervals"],
     conda:
@@ -38,7 +46,8 @@ rule whatif:
         manifest=rules.prediction_intervals.output.manifest,
         models=[rules.surrogate_fit.output.model, rules.support_gate.output.model,
                 f"{MODELS}/residual_xgb_filtered.json", f"{MODELS}/residual_xgb_unfiltered.json",
-                rules.model_extension.output.extension, rules.model_extension.output.remainder],
+                rules.model_extension.output.extension, rules.model_extension.output.remainder,
+                expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS)],
     output:
         predictions="results/predictions/whatif.csv",
     params:

@@ -1,0 +1,241 @@
+"""The established alternatives to the paper's hybrid, fitted on the same information (DoE + in-support parts).
+
+- :class:`GPDiscrepancy`: Kennedy–O'Hagan style, the surrogate plus a Gaussian process of the
+  approximate residual (Matérn 5/2, one length scale per input, white noise). Hyperparameters by
+  marginal likelihood on ``n_hyper`` rows, then the GP refitted with them fixed on ``n_fit`` rows
+  (a GP cannot take every in-support part exactly; both subsets are seeded and documented).
+- :class:`CoKriging`: AR1 multi-fidelity co-kriging (SMT's MFK): the simulations as low fidelity,
+  ``n_high`` in-support parts' measured values as high fidelity.
+
+Both store their training rows and hyperparameters as JSON and are rebuilt from them exactly
+(no optimizer runs on load, no pickle).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from .gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
+from .surrogate import GPRSurrogate
+
+BATCH_ROWS = 5000  # a GP's cross-covariance with its training rows is built per batch of rows to predict
+
+
+def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
+    """Seeded subset of row positions (all rows when there are fewer), in order."""
+    if n_rows <= size:
+        return np.arange(n_rows)
+    return np.sort(np.random.default_rng(seed).choice(n_rows, size, replace=False))
+
+
+def _batched(predict, X: np.ndarray) -> np.ndarray:
+    return np.concatenate([np.ravel(predict(X[start:start + BATCH_ROWS]))
+                           for start in range(0, len(X), BATCH_ROWS)]) if len(X) else np.empty(0)
+
+
+class GPDiscrepancy(RegressorMixin, BaseEstimator):
+    """A GP of the residual (measured - surrogate); ``predict`` gives the residual correction."""
+
+    def __init__(self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, random_state: int = 0):
+        self.n_hyper = n_hyper
+        self.n_fit = n_fit
+        self.n_restarts = n_restarts
+        self.random_state = random_state
+
+    def fit(self, X, y):
+        remember_inputs(self, X)
+        matrix = np.asarray(X, float)
+        y = np.asarray(y, float)
+        self.n_features_in_ = matrix.shape[1]
+        hyper_rows = training_subset(len(y), self.n_hyper, self.random_state)
+        hyper = GPRSurrogate(n_restarts=self.n_restarts, random_state=self.random_state)
+        hyper.fit(matrix[hyper_rows], y[hyper_rows])
+        self.fit_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
+        # the same kernel, its hyperparameters fixed, on more rows (GPRSurrogate.from_dict refits without optimizing)
+        state = hyper.to_dict()
+        state.update(inputs=None, X_train=hyper.standardizer_.transform(matrix[self.fit_rows_]).tolist(),
+                     y_train=y[self.fit_rows_].tolist())
+        self.gp_ = GPRSurrogate.from_dict(state)
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        check_is_fitted(self, "gp_")
+        return _batched(self.gp_.predict, input_matrix(self, X))
+
+    def to_dict(self) -> dict:
+        return {"format": "hybridtwin.GPDiscrepancy/1", "params": self.get_params(), "inputs": input_names(self),
+                "gp": self.gp_.to_dict(), "n_fit": len(self.fit_rows_)}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "GPDiscrepancy":
+        model = cls(**data["params"])
+        model.gp_ = GPRSurrogate.from_dict(data["gp"])
+        model.n_features_in_ = model.gp_.n_features_in_
+        model.fit_rows_ = np.arange(int(data["n_fit"]))
+        restore_inputs(model, data)
+        return model
+
+
+def _mfk_class():
+    from smt.applications import MFK
+
+    class FixedMFK(MFK):
+        """SMT's MFK trained with given hyperparameters: one likelihood evaluation per level, no search."""
+
+        def __init__(self, fixed, **options):
+            super().__init__(**options)
+            self._fixed = [np.asarray(level, float) for level in fixed]
+
+        def _run_optimization(self, D):
+            # the state MFK's own search sets up before it evaluates the likelihood
+            self.D = self._componentwise_distance(D)
+            self.noise0 = np.array(self._noise0)
+            theta = self._fixed[self._lvl]
+            value, par = self._reduced_likelihood_function(theta=theta)
+            return value, par, theta
+
+    return MFK, FixedMFK
+
+
+class CoKriging(RegressorMixin, BaseEstimator):
+    """AR1 co-kriging: ``fit(X_high, y_high, X_low=DoE inputs, y_low=simulated)``; ``predict`` gives the target."""
+
+    def __init__(self, n_high: int = 500, n_start: int = 2, random_state: int = 0):
+        self.n_high = n_high
+        self.n_start = n_start
+        self.random_state = random_state
+
+    def _options(self) -> dict:
+        return {"corr": "matern52", "eval_noise": True, "hyper_opt": "Cobyla", "n_start": self.n_start,
+                "theta0": [1.0], "theta_bounds": [1e-4, 50.0], "seed": self.random_state, "print_global": False}
+
+    def _train(self, model, X_low, y_low, X_high, y_high):
+        model.set_training_values(self.standardizer_.transform(X_low), np.asarray(y_low, float)[:, None], name=0)
+        model.set_training_values(self.standardizer_.transform(X_high), np.asarray(y_high, float)[:, None])
+        model.train()
+        return model
+
+    def fit(self, X, y, X_low=None, y_low=None):
+        remember_inputs(self, X)
+        X_high = np.asarray(X, float)
+        self.n_features_in_ = X_high.shape[1]
+        rows = training_subset(len(X_high), self.n_high, self.random_state)
+        X_low = input_matrix(self, X_low)  # the DoE's columns taken by name, as the parts'
+        self.standardizer_ = DoEStandardizer().fit(X_low)  # the DoE's statistics, as the gate's
+        self.data_ = {"X_low": X_low, "y_low": np.asarray(y_low, float), "X_high": X_high[rows],
+                      "y_high": np.asarray(y, float)[rows]}
+        MFK, _ = _mfk_class()
+        self.mfk_ = self._train(MFK(**self._options()), **self.data_)
+        self.hyperparameters_ = [np.append(self.mfk_.optimal_theta[level], self.mfk_.optimal_noise_all[level]).tolist()
+                                 for level in range(2)]
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        check_is_fitted(self, "mfk_")
+        X = self.standardizer_.transform(input_matrix(self, X))
+        return _batched(self.mfk_.predict_values, X)
+
+    def to_dict(self) -> dict:
+        return {"format": "hybridtwin.CoKriging/1", "params": self.get_params(), "inputs": input_names(self),
+                "standardizer": self.standardizer_.to_dict(), "hyperparameters": self.hyperparameters_,
+                "data": {key: value.tolist() for key, value in self.data_.items()}}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "CoKriging":
+        model = cls(**data["params"])
+        model.standardizer_ = DoEStandardizer.from_dict(data["standardizer"])
+        model.data_ = {key: np.asarray(value, float) for key, value in data["data"].items()}
+        model.n_features_in_ = model.data_["X_high"].shape[1]
+        model.hyperparameters_ = data["hyperparameters"]
+        restore_inputs(model, data)
+        _, FixedMFK = _mfk_class()
+        model.mfk_ = model._train(FixedMFK(model.hyperparameters_, **model._options()), **model.data_)
+        return model
+
+
+PEERS = ("gp_discrepancy", "cokriging")
+
+
+@dataclass
+class PeerFit:
+    model: object
+    production: pd.DataFrame  # pred_<kind> (final model) and pred_<kind>_oof (NaN on its training rows)
+    matched: np.ndarray
+    fit_seconds: float
+    n_train: int
+
+
+def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: pd.DataFrame, matched: pd.DataFrame,
+             matched_surrogate, inputs, target: str, settings: dict, seed: int) -> PeerFit:
+    """Fit one peer on the DoE and the in-support parts; predict every production row and matched case.
+
+    ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
+    residuals rule's table); ``matched_surrogate``: the surrogate at the matched cases.
+    """
+    inputs = list(inputs)
+    inside = np.flatnonzero(residuals["in_support"].astype(bool).to_numpy())
+    X_in = production.iloc[inside][inputs]
+    start = time.perf_counter()
+    if kind == "gp_discrepancy":
+        model = GPDiscrepancy(n_hyper=settings["gp_n_hyper"], n_fit=settings["gp_n_fit"], random_state=seed)
+        model.fit(X_in, residuals["residual_approx"].to_numpy(float)[inside])
+        trained = np.union1d(training_subset(len(inside), model.n_hyper, seed), model.fit_rows_)
+    elif kind == "cokriging":
+        model = CoKriging(n_high=settings["cokriging_n_high"], random_state=seed)
+        model.fit(X_in, residuals["measured"].to_numpy(float)[inside], X_low=doe[inputs], y_low=doe[target])
+        trained = training_subset(len(inside), model.n_high, seed)
+    else:
+        raise ValueError(f"unknown peer {kind!r}; one of {', '.join(PEERS)}")
+    seconds = time.perf_counter() - start
+    final = peer_prediction(kind, model, production[inputs], residuals["pred_surrogate"].to_numpy(float))
+    honest = final.copy()
+    honest[inside[trained]] = np.nan
+    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}),
+                   peer_prediction(kind, model, matched[inputs], np.asarray(matched_surrogate, float)),
+                   seconds, int(len(trained)))
+
+
+def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) -> np.ndarray:
+    """The peer's prediction of the target: the GP discrepancy corrects the surrogate, co-kriging predicts it."""
+    return surrogate + model.predict(X) if kind == "gp_discrepancy" else model.predict(X)
+
+
+def load_peer(kind: str, data: dict):
+    return {"gp_discrepancy": GPDiscrepancy, "cokriging": CoKriging}[kind].from_dict(data)
+
+
+COMPARED = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid", "gp_discrepancy", "cokriging",
+            "stack", "recommended")
+
+
+def comparison_table(measured, predictions: dict[str, np.ndarray], in_support, test: np.ndarray,
+                     matched_measured, matched_predictions: dict[str, np.ndarray], fits: dict[str, dict],
+                     truth=None, noise: float | None = None) -> pd.DataFrame:
+    """peer_comparison.csv: every model on the same held-out production rows, in and out of the support.
+
+    ``predictions`` are honest (out-of-fold, or from models never trained on the row; a peer NaN on the parts it
+    trained on); the rows scored are the test blocks where every model has a value, so all models share them.
+    ``fits``: per peer, its n_train (the in-support parts it trained on).
+    """
+    from .extension import gain_table
+
+    names = [m for m in COMPARED if m in predictions]
+    rows = np.flatnonzero(test & np.all([np.isfinite(predictions[m]) for m in names], axis=0))
+    truth_rows = None if truth is None else np.asarray(truth, float)[rows]
+    matched = {m: np.asarray(matched_predictions.get(m, np.full(len(matched_measured), np.nan)), float) for m in names}
+    table = gain_table(np.asarray(measured, float)[rows], {m: predictions[m][rows] for m in names},
+                       np.asarray(in_support, bool)[rows], matched_measured, matched, truth_rows, noise)
+    # (fit times vary from run to run, so they stay out of the table: results/peers/<peer>.json and the benchmarks)
+    table["n_train"] = table["model"].map({k: v["n_train"] for k, v in fits.items()})
+    table["evaluated_on"] = (
+        "production test rows (odd blocks of consecutive rows; the recommended model and the stack's weights were "
+        "chosen on the even blocks), the same rows for every model: in support out-of-fold for the hybrid and the "
+        "extension, never among a peer's training parts; out of support from models never trained there; matched "
+        "cases never used for fitting (the stack and the recommended model are not scored on them)"
+        + ("; truth = the demo's noise-free plant" if truth is not None else ""))
+    return table

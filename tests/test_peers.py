@@ -1,0 +1,67 @@
+"""The established peers on small constructed cases with a known smooth discrepancy."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin import intervals, peers
+
+COLUMNS = ["a", "b", "c"]
+
+
+def simulator(X):
+    return 10 * X[:, 0] + 5 * np.sin(3 * X[:, 1])
+
+
+def plant(X):
+    return simulator(X) + 3 * X[:, 2] ** 2 + 2  # the discrepancy: smooth, in an input the simulator ignores
+
+
+@pytest.fixture(scope="module")
+def case():
+    rng = np.random.default_rng(0)
+    doe = rng.random((40, 3))
+    parts = rng.random((1500, 3))
+    new = pd.DataFrame(rng.random((300, 3)), columns=COLUMNS)
+    return {"doe": pd.DataFrame(doe, columns=COLUMNS), "y_doe": simulator(doe) + rng.normal(0, 0.05, 40),
+            "parts": pd.DataFrame(parts, columns=COLUMNS), "y_parts": plant(parts) + rng.normal(0, 0.3, 1500),
+            "new": new, "truth": plant(new.to_numpy())}
+
+
+def _rmse(a, b):
+    return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
+
+
+def test_gp_discrepancy_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
+    residual = case["y_parts"] - simulator(case["parts"].to_numpy())
+    model = peers.GPDiscrepancy(n_hyper=200, n_fit=600).fit(case["parts"], residual)
+    corrected = simulator(case["new"].to_numpy()) + model.predict(case["new"])
+    assert _rmse(corrected, case["truth"]) < 0.1  # the noise is 0.3, the discrepancy up to 5
+    assert _rmse(simulator(case["new"].to_numpy()), case["truth"]) > 2
+    again = peers.GPDiscrepancy.from_dict(model.to_dict())
+    assert np.array_equal(again.predict(case["new"]), model.predict(case["new"]))
+    assert np.array_equal(again.predict(case["new"][COLUMNS[::-1]]), model.predict(case["new"]))  # by name
+
+
+def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
+    model = peers.CoKriging(n_high=200).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
+    assert _rmse(model.predict(case["new"]), case["truth"]) < 0.3
+    again = peers.CoKriging.from_dict(model.to_dict())  # refitted with the stored hyperparameters, no search
+    assert np.array_equal(again.predict(case["new"]), model.predict(case["new"]))
+    assert len(model.data_["X_high"]) == 200
+
+
+def test_a_peer_is_never_scored_on_the_parts_it_trained_on():
+    rng = np.random.default_rng(3)
+    n = 4000
+    measured = rng.normal(0, 1, n)
+    good = measured + rng.normal(0, 0.1, n)
+    trained_on = rng.random(n) < 0.3
+    # on its training rows a peer would look perfect; the workflow marks them NaN and they must not count
+    peer = np.where(trained_on, np.nan, measured + rng.normal(0, 2.0, n))
+    region = np.full(n, "in_support", dtype=object)
+    calibration = intervals.calibration_rows(n, 10)
+    fitted = intervals.RegionIntervals.fit(measured, {"hybrid": good, "gp_discrepancy": peer}, region, calibration, [])
+    assert fitted.recommended["in_support"] in ("hybrid", "stack")
+    assert len(fitted.calibration["gp_discrepancy"]["in_support"]) == int(np.sum(calibration & ~trained_on))
+    lower, upper = fitted.interval("gp_discrepancy", peer, region, 0.9)
+    assert np.isnan(lower[trained_on]).all() and np.isfinite(lower[~trained_on]).all()

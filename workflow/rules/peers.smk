@@ -1,0 +1,31 @@
+# The established alternatives, fitted on exactly what the filtered hybrid gets: DoE + in-support parts.
+
+
+rule peer:
+    input:
+        doe=rules.validate_inputs.output.doe,
+        production=rules.validate_inputs.output.production,
+        matched=rules.validate_inputs.output.matched,
+        residuals=rules.residuals.output.residuals,
+        surrogate=rules.surrogate_fit.output.model,
+    output:
+        model=f"{MODELS}/peer_{{peer}}.json",
+        predictions="results/peers/{peer}_production.csv",
+        matched="results/peers/{peer}_matched.csv",
+        summary="results/peers/{peer}.json",
+    wildcard_constraints:
+        peer="gp_discrepancy|cokriging",
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        target=TARGET,
+        seed=SEED,
+        settings=config["peers"],
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("peer", "_{peer}"),
+    benchmark:
+        benchmark_of("peer", "_{peer}")
+    script:
+        "../../scripts/peer.py"
