@@ -46,9 +46,8 @@ def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
     surrogate = predictions["pred_surrogate"].to_numpy(float)
     honest = {"surrogate": surrogate,
               "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
-              "hybrid": predictions["pred_hybrid_oof"].to_numpy(float),
-              "hybrid_unfiltered": predictions["pred_hybrid_unfiltered_oof"].to_numpy(float)}
-    for model in ("extended", "extended_hybrid", "gp_discrepancy", "cokriging"):
+              "hybrid": predictions["pred_hybrid_oof"].to_numpy(float)}
+    for model in ("hybrid_unfiltered", "extended", "extended_hybrid", "gp_discrepancy", "cokriging"):
         if f"pred_{model}_oof" in predictions:
             honest[model] = predictions[f"pred_{model}_oof"].to_numpy(float)
     return honest

@@ -302,3 +302,75 @@ def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
     steps = np.diff(fitted[np.argsort(x, kind="stable")])
     scale = np.ptp(fitted) or 1.0
     return bool(np.all(steps >= -1e-9 * scale) or np.all(steps <= 1e-9 * scale))
+
+
+# models compared by benchmarks/peer_bank.py, out of support against the truth
+COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "stack", "recommended")
+
+
+def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Settings | None = None,
+                   peer_settings: dict | None = None, folds: int = 5, level: float = 0.9) -> dict:
+    """The paper's hybrid, the extension, the two peers, their stack and the recommended model on one plant.
+
+    As the workflow does it: every model fitted on the DoE and the in-support parts; honest predictions
+    (out-of-fold in support, a peer never on its training parts); the recommended model and the stack
+    chosen on the even blocks of consecutive parts; every score on the odd blocks. Returns, per model,
+    the truth-RMSE out of and in the support on those rows.
+    """
+    from .. import intervals, peers
+    from ..extension import cross_validated
+    from ..validation import cross_validate
+    from ..validation import folds as fold_splits
+
+    inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
+    gate = KNNSupportGate().fit(doe[inputs])
+    distance = gate.distance(production[inputs])
+    inside = distance <= gate.threshold_
+    surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
+    mean, std = surrogate.predict(production[inputs], return_std=True)
+    measured = production[target].to_numpy(float)
+    r = measured - mean
+    settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
+    result = diagnosis.diagnose(production.loc[inside].drop(columns=[target]), r[inside], inputs, [target], settings,
+                                surrogate_std=diagnosis.surrogate_latent_std(std[inside], surrogate.noise_std_))
+    X = production[inputs].to_numpy(float)
+    rows = np.flatnonzero(inside)
+
+    def make_xgb():
+        return residual.make_model(SCENARIO_XGB, seed, n_jobs)
+
+    causes = causes_from_diagnosis(result.selected)
+    splits = fold_splits(len(rows), folds, seed + 1)
+    hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
+    _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, seed + 1)
+    models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
+    extended = mean + models.extension.predict(production)
+    extended_hybrid = extended + models.remainder.predict(X)
+    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits)
+    frame = pd.DataFrame({"in_support": inside, "knn_distance": distance, "measured": measured, "pred_surrogate": mean,
+                          "pred_hybrid_oof": hybrid, "pred_extended_oof": extended,
+                          "pred_extended_hybrid_oof": extended_hybrid})
+    frame.loc[rows, "pred_hybrid_oof"] = mean[rows] + hybrid_oof
+    frame.loc[rows, "pred_extended_oof"] = mean[rows] + oof_extended
+    frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
+    residuals = pd.DataFrame({"measured": measured, "pred_surrogate": mean, "residual_approx": r, "in_support": inside})
+    peer_settings = peer_settings or {"gp_n_hyper": 500, "gp_n_fit": 2000, "cokriging_n_high": 500}
+    for kind in peers.PEERS:
+        fit = peers.fit_peer(kind, doe, production, residuals, production.iloc[:0], np.empty(0), inputs, target,
+                             peer_settings, seed)
+        frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
+    doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
+    calibrated = intervals.calibrate(frame, production[inputs], doe_range, gate.threshold_, level, 4, 20, seed,
+                                     case.truth)
+    honest = dict(calibrated.honest)
+    honest["recommended"] = intervals.recommended_prediction(calibrated.intervals, calibrated.honest,
+                                                             calibrated.region, level)["pred_recommended"].to_numpy()
+    test = ~calibrated.calibration
+    scored = {}
+    for model in COMPARED_MODELS:
+        for where, mask in (("out", test & ~inside), ("in", test & inside)):
+            ok = mask & np.isfinite(honest[model])
+            scored[f"{model}_{where}"] = rmse(case.truth[ok], honest[model][ok]) if ok.any() else float("nan")
+    scored["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
+    scored["n_in_support"] = int(inside.sum())
+    return scored

@@ -1,0 +1,82 @@
+"""Benchmark: the recommended model against the established peers on many plants (issue 12's goals).
+
+On each plant (the other plant families, and the demo with its hidden-effect kinds) the paper's
+hybrid, the extended hybrid, the GP discrepancy (Kennedy-O'Hagan), AR1 co-kriging (SMT MFK), their
+stack and the recommended model are fitted as the workflow fits them and scored against the
+noise-free truth on held-out parts (``scenarios.compare_models``). Usage:
+
+    python benchmarks/peer_bank.py --per-family 3 --seed 1
+"""
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.demo import families, scenarios
+
+PEERS = ("gp_discrepancy", "cokriging")
+
+
+def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int) -> pd.DataFrame:
+    rows = []
+    plants = [("families", family, seed * 1000 + i * 100 + j) for j in range(per_family)
+              for i, family in enumerate(families.FAMILIES)]
+    plants += [("demo", kind, seed * 1000 + i) for i, kind in enumerate(demo_kinds)]
+    for generator, kind, draw in plants:
+        start = time.perf_counter()
+        case = families.draw_plant(kind, draw) if generator == "families" else scenarios.demo_case(kind, draw)
+        scored = scenarios.compare_models(case, draw, jobs)
+        best_peer_out = min(scored[f"{p}_out"] for p in PEERS)
+        best_peer_in = min(scored[f"{p}_in"] for p in PEERS)
+        row = {"generator": generator, "kind": kind, "draw": draw, **scored,
+               "ratio_out": scored["recommended_out"] / best_peer_out,
+               "ratio_in": scored["recommended_in"] / best_peer_in, "seconds": time.perf_counter() - start}
+        rows.append(row)
+        print(f"{generator:8s} {kind:14s} draw {draw}: out-of-support truth-RMSE recommended "
+              f"{scored['recommended_out']:.2f}, best peer {best_peer_out:.2f} (ratio {row['ratio_out']:.2f}); "
+              f"in support ratio {row['ratio_in']:.2f} | {scored['recommended_models']} ({row['seconds']:.0f} s)",
+              flush=True)
+    return pd.DataFrame(rows)
+
+
+def summary(table: pd.DataFrame) -> str:
+    models = scenarios.COMPARED_MODELS
+    lines = ["| plants | n | " + " | ".join(models) + " | recommended / best peer (median, worst) | in support: worst ratio |",
+             "|---|---:|" + "---:|" * len(models) + "---|---:|"]
+    for (generator, kind), part in table.groupby(["generator", "kind"], sort=False):
+        medians = " | ".join(f"{part[f'{m}_out'].median():.2f}" for m in models)
+        lines.append(f"| {generator} {kind} | {len(part)} | {medians} | {part['ratio_out'].median():.2f}, "
+                     f"{part['ratio_out'].max():.2f} | {part['ratio_in'].max():.2f} |")
+    lines.append("")
+    lines.append(f"out of support, recommended / best peer: median {table['ratio_out'].median():.2f}, worst "
+                 f"{table['ratio_out'].max():.2f}, at most 1 in {(table['ratio_out'] <= 1).sum()}/{len(table)} plants; "
+                 f"in support: worst {table['ratio_in'].max():.2f}, within 5% in "
+                 f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--per-family", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--demo-kinds", nargs="*", default=list(scenarios.KINDS))
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--out", default="benchmarks/out")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs)
+    text = "table: out-of-support truth-RMSE on held-out parts, median over plants (mm)\n\n" + summary(table)
+    print("\n" + text)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "peer_bank.csv", index=False)
+    (out / "peer_bank.md").write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
