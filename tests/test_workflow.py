@@ -366,3 +366,14 @@ def test_whatif_key_adds_one_rule_and_its_answers_are_the_clis(run_dir, tmp_path
                   cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert (workdir / "results/predictions/whatif.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+
+
+def test_results_dir_puts_everything_a_run_writes_under_it(tmp_path):
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config["results_dir"] = "runs/plant_a"
+    config["data"] = {role: path.replace("results/", "runs/plant_a/") for role, path in config["data"].items()}
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    summary = snakemake(tmp_path, "--summary", config=path).stdout.splitlines()
+    outputs = [line.split("\t")[0] for line in summary if "\t" in line and not line.startswith("output_file")]
+    assert len(outputs) > 40 and all(name.startswith("runs/plant_a/") for name in outputs), outputs

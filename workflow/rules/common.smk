@@ -26,18 +26,20 @@ PACKAGE_CODE = hashlib.sha256(
 ).hexdigest()[:16]
 
 PEERS = ["gp_discrepancy", "cokriging"]
-TABLES = "results/tables"
-FIGURES = "results/figures"
-MODELS = "results/models"
-DEMO = "results/demo"
+# everything a run writes lives under one folder, so two plants (or two panels) can run side by side
+RESULTS = config["results_dir"].rstrip("/")
+TABLES = f"{RESULTS}/tables"
+FIGURES = f"{RESULTS}/figures"
+MODELS = f"{RESULTS}/models"
+DEMO = f"{RESULTS}/demo"
 
 
 def log_of(rule_name, suffix=""):
-    return f"results/logs/{rule_name}{suffix}.log"
+    return f"{RESULTS}/logs/{rule_name}{suffix}.log"
 
 
 def benchmark_of(rule_name, suffix=""):
-    return f"results/benchmarks/{rule_name}{suffix}.tsv"
+    return f"{RESULTS}/benchmarks/{rule_name}{suffix}.tsv"
 
 
 def final_outputs():
@@ -47,10 +49,10 @@ def final_outputs():
     return (
         [f"{TABLES}/{name}.csv" for name in tables]
         + [f"{FIGURES}/{name}.png" for name in figures]
-        + ["results/predictions/production.csv", "results/synthetic/doe_corrected.csv",
-           "results/synthetic/support_samples.csv", "results/diagnosis.md",
+        + [f"{RESULTS}/predictions/production.csv", f"{RESULTS}/synthetic/doe_corrected.csv",
+           f"{RESULTS}/synthetic/support_samples.csv", f"{RESULTS}/diagnosis.md",
            f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json"]
-        + (["results/predictions/whatif.csv"] if config.get("whatif") else [])
+        + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
     )
 
 

@@ -28,10 +28,10 @@ rule validate_inputs:
         production=config["data"]["production"],
         matched=config["data"]["matched"],
     output:
-        doe="results/data/doe.csv",
-        production="results/data/production.csv",
-        matched="results/data/matched.csv",
-        report="results/data/validation_report.txt",
+        doe=f"{RESULTS}/data/doe.csv",
+        production=f"{RESULTS}/data/production.csv",
+        matched=f"{RESULTS}/data/matched.csv",
+        report=f"{RESULTS}/data/validation_report.txt",
     params:
         code=PACKAGE_CODE,
         settings={key: config[key] for key in ("data", "columns", "csv", "cv", "gate")},
@@ -72,8 +72,8 @@ rule support_gate:
         standardization=rules.standardize.output.model,
     output:
         model=f"{MODELS}/support_gate.json",
-        production="results/support/production_support.csv",
-        matched="results/support/matched_support.csv",
+        production=f"{RESULTS}/support/production_support.csv",
+        matched=f"{RESULTS}/support/matched_support.csv",
         figure=report(f"{FIGURES}/support_distances.png", caption="../report/support_distances.rst",
                       category="1. Data and support"),
     params:

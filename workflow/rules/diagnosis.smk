@@ -11,7 +11,7 @@ rule diagnose:
     output:
         table=report(f"{TABLES}/discrepancy_causes.csv", caption="../report/discrepancy_causes.rst",
                      category="6. Diagnosis"),
-        summary="results/diagnosis/diagnosis.json",
+        summary=f"{RESULTS}/diagnosis/diagnosis.json",
         figures=report(
             expand(f"{FIGURES}/cause_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
             caption="../report/cause_figure.rst",
@@ -50,8 +50,8 @@ rule model_extension:
                      category="6. Diagnosis"),
         extension=f"{MODELS}/extension.json",
         remainder=f"{MODELS}/residual_xgb_extended.json",
-        predictions="results/predictions/extension.csv",
-        matched_predictions="results/predictions/matched_models.csv",
+        predictions=f"{RESULTS}/predictions/extension.csv",
+        matched_predictions=f"{RESULTS}/predictions/matched_models.csv",
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -73,9 +73,9 @@ rule production_predictions:
     input:
         hybrid=rules.predict_production.output.predictions,
         extension=rules.model_extension.output.predictions,
-        peers=expand("results/peers/{peer}_production.csv", peer=PEERS),
+        peers=expand(f"{RESULTS}/peers/{{peer}}_production.csv", peer=PEERS),
     output:
-        predictions="results/predictions/production.csv",
+        predictions=f"{RESULTS}/predictions/production.csv",
     params:
         code=PACKAGE_CODE,
     conda:
@@ -95,7 +95,7 @@ rule diagnosis_report:
         summary=rules.diagnose.output.summary,
         gain=rules.model_extension.output.table,
     output:
-        report=report("results/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
+        report=report(f"{RESULTS}/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
     params:
         code=PACKAGE_CODE,
         target=TARGET,

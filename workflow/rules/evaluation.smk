@@ -8,10 +8,10 @@ rule predict_production:
         support=rules.support_gate.output.production,
         filtered_model=f"{MODELS}/residual_xgb_filtered.json",
         unfiltered_model=f"{MODELS}/residual_xgb_unfiltered.json",
-        filtered_oof="results/residuals/oof_filtered.csv",
-        unfiltered_oof="results/residuals/oof_unfiltered.csv",
+        filtered_oof=f"{RESULTS}/residuals/oof_filtered.csv",
+        unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.csv",
     output:
-        predictions="results/predictions/hybrid.csv",
+        predictions=f"{RESULTS}/predictions/hybrid.csv",
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -97,9 +97,9 @@ rule synthetic:
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",
     output:
-        doe=report("results/synthetic/doe_corrected.csv", caption="../report/synthetic.rst",
+        doe=report(f"{RESULTS}/synthetic/doe_corrected.csv", caption="../report/synthetic.rst",
                    category="5. Synthetic data"),
-        support="results/synthetic/support_samples.csv",
+        support=f"{RESULTS}/synthetic/support_samples.csv",
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,

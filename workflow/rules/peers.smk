@@ -10,9 +10,9 @@ rule peer:
         surrogate=rules.surrogate_fit.output.model,
     output:
         model=f"{MODELS}/peer_{{peer}}.json",
-        predictions="results/peers/{peer}_production.csv",
-        matched="results/peers/{peer}_matched.csv",
-        summary="results/peers/{peer}.json",
+        predictions=f"{RESULTS}/peers/{{peer}}_production.csv",
+        matched=f"{RESULTS}/peers/{{peer}}_matched.csv",
+        summary=f"{RESULTS}/peers/{{peer}}.json",
     wildcard_constraints:
         peer="gp_discrepancy|cokriging",
     params:

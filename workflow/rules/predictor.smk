@@ -11,8 +11,8 @@ rule prediction_intervals:
         matched=rules.validate_inputs.output.matched,
         matched_models=rules.model_extension.output.matched_predictions,
         matched_cases=rules.matched_check.output.cases,
-        peers_matched=expand("results/peers/{peer}_matched.csv", peer=PEERS),
-        peers_summary=expand("results/peers/{peer}.json", peer=PEERS),
+        peers_matched=expand(f"{RESULTS}/peers/{{peer}}_matched.csv", peer=PEERS),
+        peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
         comparison=report(f"{TABLES}/peer_comparison.csv", caption="../report/peer_comparison.rst",
@@ -49,7 +49,7 @@ rule whatif:
                 rules.model_extension.output.extension, rules.model_extension.output.remainder,
                 expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS)],
     output:
-        predictions="results/predictions/whatif.csv",
+        predictions=f"{RESULTS}/predictions/whatif.csv",
     params:
         code=PACKAGE_CODE,
         level=config["intervals"]["level"],

@@ -6,8 +6,8 @@ rule tune_residual:
         production=rules.validate_inputs.output.production,
         residuals=rules.residuals.output.residuals,
     output:
-        best="results/tuning/best_params.json",
-        trials="results/tuning/trials.csv",
+        best=f"{RESULTS}/tuning/best_params.json",
+        trials=f"{RESULTS}/tuning/trials.csv",
         table=report(f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst",
                      category="3. Residual model"),
     params:
@@ -18,7 +18,7 @@ rule tune_residual:
         n_trials=config["tuning"]["n_trials"],
         search_space=config["tuning"]["search_space"],
         # the study journal lives outside the outputs, so a killed run resumes it
-        storage=config["tuning"]["storage"],
+        storage=config["tuning"]["storage"] or f"{RESULTS}/optuna/journal.log",
     threads: 2
     conda:
         "../envs/hybridtwin.yaml"
@@ -36,9 +36,9 @@ rule residual_cv:
         residuals=rules.residuals.output.residuals,
         best=rules.tune_residual.output.best,
     output:
-        folds="results/residuals/cv_folds_{training}.csv",
-        oof="results/residuals/oof_{training}.csv",
-        table="results/residuals/cv_{training}.csv",
+        folds=f"{RESULTS}/residuals/cv_folds_{{training}}.csv",
+        oof=f"{RESULTS}/residuals/oof_{{training}}.csv",
+        table=f"{RESULTS}/residuals/cv_{{training}}.csv",
     wildcard_constraints:
         training="filtered|unfiltered",
     params:
@@ -59,7 +59,7 @@ rule residual_cv:
 
 rule table3:
     input:
-        table="results/residuals/cv_filtered.csv",
+        table=f"{RESULTS}/residuals/cv_filtered.csv",
     output:
         table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst",
                      category="3. Residual model"),

@@ -53,7 +53,7 @@ rule residuals:
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        residuals="results/residuals/production_residuals.csv",
+        residuals=f"{RESULTS}/residuals/production_residuals.csv",
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
