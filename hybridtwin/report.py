@@ -1,7 +1,31 @@
 """results/diagnosis.md: the diagnosis in words, for process and simulation engineers."""
 from __future__ import annotations
 
+import html
+import re
+
 import pandas as pd
+
+# the report's words for the gain table's columns
+HEADERS = {"rmse_in_support_cv": "in support (CV)", "rmse_out_of_support": "out of support",
+           "rmse_matched": "matched cases", "rmse_truth_in_support_cv": "vs truth, in support (CV)",
+           "rmse_truth_out_of_support": "vs truth, out of support"}
+
+
+def text(value) -> str:
+    """User-supplied text (a column name, a unit) made inert in Markdown and HTML.
+
+    HTML is escaped; of Markdown's marks only those that act mid-line are (emphasis, code, links,
+    table cells), so a description stays readable in the raw file.
+    """
+    return re.sub(r"([\\`*\[\]|])", r"\\\1", html.escape(str(value), quote=False))
+
+
+def code(name) -> str:
+    """A name as a Markdown code span, whatever it holds (a backtick in a name gets a longer fence)."""
+    name = str(name)
+    fence = "``" if "`" in name else "`"
+    return f"{fence} {name} {fence}" if fence == "``" else f"`{name}`"
 
 
 def _fmt(value, digits: int = 2) -> str:
@@ -11,8 +35,13 @@ def _fmt(value, digits: int = 2) -> str:
 def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, target: str, unit: str,
                        demo_spec: dict | None = None) -> str:
     offset = summary["offset"]
-    lines = [f"# What the simulation gets wrong: {target}", ""]
-    lines += [f"Data: {summary['n_rows']:,} in-support production parts (approximate residuals "
+    unit = text(unit)
+    lines = [f"# What the simulation gets wrong: {code(target)}", ""]
+    n_in_support = summary.get("n_in_support", summary["n_rows"])
+    sample = (f"a seeded random sample of {summary['n_rows']:,} of the {n_in_support:,} in-support production parts "
+              "(diagnosis.max_rows)" if summary["n_rows"] < n_in_support
+              else f"{summary['n_rows']:,} in-support production parts")
+    lines += [f"Data: {sample} (approximate residuals "
               f"r = measured − surrogate). Residual spread after the offset: {summary['residual_std']:.2f} {unit} (std). "
               f"The surrogate's own uncertainty on these parts is {summary['surrogate_std']:.2f} {unit}; a cause must "
               f"move the residual by more than {summary['min_effect']:.2f} {unit} (std) to count, or it could be "
@@ -29,11 +58,12 @@ def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, 
                   "uncertainty. The simulation's error here is a constant offset (plus noise).", ""]
         top = causes.iloc[0] if len(causes) else None
         if top is not None:
-            lines += [f"Strongest candidate, not significant: `{top['cause']}` ({top['form']}, explains "
+            lines += [f"Strongest candidate, not significant: {code(top['cause'])} ({top['form']}, explains "
                       f"{top['explained_share']:.1%} of the offset-free variance, p = {top['p_value']:.2g}).", ""]
     for rank, cause in enumerate(selected, start=1):
         row = causes.set_index("cause").loc[cause["name"]]
-        lines += [f"{rank}. **`{cause['name']}`**, form *{cause['form']}* ({cause['family']}): {cause['description']}. "
+        lines += [f"{rank}. **{code(cause['name'])}**, form *{cause['form']}* ({cause['family']}): "
+                  f"{text(cause['description'])}. "
                   f"It explains {row['explained_share']:.1%} of the offset-free residual variance on its own "
                   f"(held-out), changes the draw-in by {cause['effect_range']:.2f} {unit} peak to peak over the "
                   f"data, p = {cause['p_value']:.2g}. Figure: `results/figures/cause_{rank}.png`."]
@@ -43,15 +73,15 @@ def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, 
     notes = []
     for cause, aliases in summary["aliases"].items():
         if aliases:
-            notes.append(f"- `{cause}` cannot be told apart from {', '.join(f'`{a}`' for a in aliases)} in this "
+            notes.append(f"- {code(cause)} cannot be told apart from {', '.join(code(a) for a in aliases)} in this "
                          "data: each explains the residual as well as the other once either is in. More varied "
                          "data (or a designed trial) is needed to decide.")
     for proxy, named in summary.get("proxies", {}).items():
-        notes.append(f"- `{proxy}` is an id: it stands for whatever changes with it. `{named['cause']}` accounts "
-                     f"for {named['share']:.0%} of the differences between its levels, so `{named['cause']}` is "
+        notes.append(f"- {code(proxy)} is an id: it stands for whatever changes with it. {code(named['cause'])} accounts "
+                     f"for {named['share']:.0%} of the differences between its levels, so {code(named['cause'])} is "
                      "named as the cause.")
     for other, cause in summary["explained_by"].items():
-        notes.append(f"- `{other}` looks related on its own but adds nothing once `{cause}` is in (a correlated "
+        notes.append(f"- {code(other)} looks related on its own but adds nothing once {code(cause)} is in (a correlated "
                      "neighbour, not the cause).")
     lines += notes or ["- Nothing: the chosen causes were separated from their correlated neighbours."]
     lines += ["", "## Gain of the extended model", "",
@@ -59,7 +89,7 @@ def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, 
               f"RMSE in {unit}:", ""]
     columns = [c for c in ("rmse_in_support_cv", "rmse_out_of_support", "rmse_matched",
                            "rmse_truth_in_support_cv", "rmse_truth_out_of_support") if c in gain.columns]
-    lines.append("| model | " + " | ".join(columns) + " |")
+    lines.append("| model | " + " | ".join(HEADERS[c] for c in columns) + " |")
     lines.append("|---" * (len(columns) + 1) + "|")
     for row in gain.itertuples():
         lines.append(f"| {row.model} | " + " | ".join(_fmt(getattr(row, c)) for c in columns) + " |")

@@ -51,3 +51,17 @@ def test_says_plainly_when_nothing_is_significant():
     text = diagnosis_markdown(CAUSES, _summary(2.0, selected=False), GAIN, "draw-in", "mm")
     assert "**No cause beyond the offset is significant.**" in text
     assert "Strongest candidate, not significant: `die_temp_c`" in text
+
+
+def test_user_names_are_inert_in_markdown_and_html():
+    text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "Einzug <b>mm</b>", "m<i>m</i>")
+    assert "<b>" not in text.replace("`Einzug <b>mm</b>`", "") and "<i>" not in text
+    assert "# What the simulation gets wrong: `Einzug <b>mm</b>`" in text
+    assert "m&lt;i&gt;m&lt;/i&gt;" in text
+
+
+def test_a_sample_of_the_in_support_parts_is_stated():
+    summary = {**_summary(2.0), "n_rows": 10_000, "n_in_support": 11_823}
+    text = diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm")
+    assert "a seeded random sample of 10,000 of the 11,823 in-support production parts" in text
+    assert "| model | in support (CV) | out of support |" in text
