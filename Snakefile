@@ -24,6 +24,7 @@ include: "workflow/rules/evaluation.smk"
 include: "workflow/rules/diagnosis.smk"
 include: "workflow/rules/peers.smk"
 include: "workflow/rules/predictor.smk"
+include: "workflow/rules/enrichment.smk"
 
 
 rule all:

@@ -133,3 +133,45 @@ def prediction_intervals(distance, error, region, half_width: dict[str, float], 
              title=f"{level:.0%} prediction intervals by region (held-out production rows)")
     axis.legend(fontsize=7, loc="upper left")
     return figure
+
+
+def enrichment_share(share_before: float, shares, shares_fixed, k: int):
+    """Share of production in support against the number of added simulations."""
+    figure, axis = plt.subplots(figsize=(6, 3.5))
+    steps = np.arange(len(shares) + 1)
+    axis.plot(steps, [share_before, *shares], "o-", color="C0", label="gate rebuilt on the enlarged DoE")
+    axis.plot(steps, [share_before, *shares_fixed], "s--", color="C1", ms=4,
+              label="today's threshold held (coverage alone)")
+    axis.set(xlabel="proposed simulations added", ylabel="production parts in support", ylim=(0, 1.02),
+             title=f"What the proposals bring (kNN gate, k={k})")
+    axis.yaxis.set_major_formatter(matplotlib.ticker.PercentFormatter(1.0))
+    axis.legend()
+    return figure
+
+
+def enrichment_map(doe, production, inside, proposals, seed: int = 0):
+    """DoE, production (in and out of support) and the proposals on the DoE-standardized inputs' first two
+    principal axes."""
+    from sklearn.decomposition import PCA
+
+    doe, production, proposals = (np.asarray(a, float) for a in (doe, production, proposals))
+    mean, scale = doe.mean(axis=0), doe.std(axis=0, ddof=1)
+    pca = PCA(n_components=2, random_state=seed).fit((np.vstack([doe, production]) - mean) / scale)
+    project = lambda X: pca.transform((X - mean) / scale)  # noqa: E731
+    shown = np.random.default_rng(seed).choice(len(production), min(len(production), 4000), replace=False)
+    inside = np.asarray(inside, bool)[shown]
+    figure, axis = plt.subplots(figsize=(6, 5))
+    points = project(production[shown])
+    axis.scatter(*points[~inside].T, s=3, color="0.7", label="production, out of support")
+    axis.scatter(*points[inside].T, s=3, color="C2", label="production, in support")
+    axis.scatter(*project(doe).T, s=25, marker="x", color="C0", label=f"DoE ({len(doe)})")
+    if len(proposals):
+        placed = project(proposals)
+        axis.scatter(*placed.T, s=60, marker="*", color="C3", label=f"proposed ({len(proposals)})")
+        for number, (x, y) in enumerate(placed, start=1):
+            axis.annotate(str(number), (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, color="C3")
+    ratio = pca.explained_variance_ratio_
+    axis.set(xlabel=f"principal axis 1 ({ratio[0]:.0%})", ylabel=f"principal axis 2 ({ratio[1]:.0%})",
+             title="DoE, production and proposed simulations (DoE-standardized inputs)")
+    axis.legend(fontsize=7)
+    return figure

@@ -51,7 +51,8 @@ def final_outputs():
         + [f"{FIGURES}/{name}.png" for name in figures]
         + [f"{RESULTS}/predictions/production.csv", f"{RESULTS}/synthetic/doe_corrected.csv",
            f"{RESULTS}/synthetic/support_samples.csv", f"{RESULTS}/diagnosis.md",
-           f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json"]
+           f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json",
+           f"{RESULTS}/enrichment/proposed_simulations.csv"]
         + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
     )
 

@@ -1,0 +1,161 @@
+"""The next simulations to run: DoE points that bring the most production parts into the support.
+
+Greedy, one point at a time. Candidates are the k-means centres of the out-of-support parts in
+DoE-standardized space (weighted, recent parts more), kept inside the physical limits: the union of
+the DoE's and the production's ranges, widened by ``margin`` of that span, never beyond. Each step
+takes the candidate that brings the most (weighted) parts into the support, scored with the current
+gate (a part's mean distance to its k nearest DoE points, the new point among them); ties go to the
+candidate that shortens the parts' distances to the support most, weighted up where the surrogate
+is least sure (a point there also teaches the surrogate most). Then the gate is rebuilt as the
+workflow would rebuild it on the enlarged DoE (standardization and threshold refitted), and the
+parts it brings in, and the share in support, are counted with that gate.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.spatial.distance import cdist
+from sklearn.cluster import KMeans
+
+from .gate import KNNSupportGate
+
+
+@dataclass(frozen=True)
+class EnrichmentSettings:
+    n_points: int = 10
+    recency_weight: float = 1.0  # the newest part weighs 1 + this, the oldest 1
+    margin: float = 0.05  # share of each input's span the limits are widened by
+    n_candidates: int = 200
+    seed: int = 0
+
+
+def recency_weights(n_rows: int, recency_weight: float) -> np.ndarray:
+    """Linear in the row's place in the log (rows in time order): 1 for the oldest, 1 + w for the newest."""
+    return 1.0 + recency_weight * np.arange(n_rows) / max(n_rows - 1, 1)
+
+
+def physical_limits(doe: np.ndarray, production: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    low = np.minimum(doe.min(axis=0), production.min(axis=0))
+    high = np.maximum(doe.max(axis=0), production.max(axis=0))
+    span = high - low
+    return low - margin * span, high + margin * span
+
+
+def _nearest(reference: np.ndarray, points: np.ndarray, k: int) -> np.ndarray:
+    """Each point's k smallest distances to the reference rows, sorted."""
+    from sklearn.neighbors import NearestNeighbors
+
+    distances, _ = NearestNeighbors(n_neighbors=k).fit(reference).kneighbors(points)
+    return distances
+
+
+def _gain(nearest: np.ndarray, candidate_distance: np.ndarray, threshold: float, weights: np.ndarray):
+    """Weighted parts each candidate brings under the threshold, and the weighted distance it removes.
+
+    ``nearest``: (parts, k) current nearest distances; ``candidate_distance``: (parts, candidates).
+    """
+    k = nearest.shape[1]
+    current = nearest.mean(axis=1)
+    # with the candidate among the reference points the k nearest lose their farthest one if it is nearer
+    replaced = (nearest.sum(axis=1)[:, None] - nearest[:, -1:] + candidate_distance) / k
+    new = np.minimum(current[:, None], replaced)
+    brought = ((new <= threshold) & (current[:, None] > threshold)) * weights[:, None]
+    shortened = (current[:, None] - new) * weights[:, None]
+    return brought.sum(axis=0), shortened.sum(axis=0)
+
+
+@dataclass
+class Proposal:
+    points: np.ndarray  # (n, inputs) in the DoE's units
+    brought_in: list[np.ndarray]  # per point, the production rows it brings into the support
+    share_after: list[float]  # share of production in support after points 1..j
+    share_before: float
+    surrogate_std: np.ndarray
+    share_after_fixed_threshold: list[float]  # the same with today's threshold held
+
+
+def propose(doe: np.ndarray, production: np.ndarray, k: int, percentile: float, settings: EnrichmentSettings,
+            surrogate_std=None) -> Proposal:
+    """``surrogate_std(points) -> std`` (optional) ranks candidates that tie on the parts they bring in."""
+    doe, production = np.asarray(doe, float), np.asarray(production, float)
+    weights = recency_weights(len(production), settings.recency_weight)
+    low, high = physical_limits(doe, production, settings.margin)
+    gate = KNNSupportGate(k=k, percentile=percentile).fit(doe)
+    inside = gate.predict(production)
+    share_before = float(inside.mean())
+    points, brought, shares, stds, held_shares = [], [], [], [], []
+    if inside.all() or settings.n_points == 0:
+        return Proposal(np.empty((0, doe.shape[1])), [], [], share_before, np.empty(0), [])
+    outside = ~inside
+    # points far from the DoE raise the rebuilt gate's threshold (a percentile of the DoE's own distances):
+    # candidates are chosen, and also counted, against today's threshold, so a point earns its place by coverage
+    threshold = gate.threshold_
+    held = inside.copy()
+    z = gate.standardizer_.transform(production[outside])
+    clusters = min(settings.n_candidates, int(outside.sum()))
+    centres = KMeans(n_clusters=clusters, n_init=1, random_state=settings.seed).fit(
+        z, sample_weight=weights[outside]).cluster_centers_
+    candidates = np.clip(centres * gate.standardizer_.scale_ + gate.standardizer_.mean_, low, high)
+    raw_std = np.asarray(surrogate_std(candidates), float) if surrogate_std is not None else np.zeros(len(candidates))
+    uncertainty = 1.0 + raw_std / raw_std.max() if raw_std.max() > 0 else np.ones(len(candidates))
+    available = np.ones(len(candidates), bool)
+    current_doe = doe
+    for _ in range(settings.n_points):
+        if held.all() or not available.any():
+            break
+        out_rows = np.flatnonzero(~held)
+        z_out = gate.standardizer_.transform(production[out_rows])
+        nearest = _nearest(gate.reference_, z_out, k)
+        z_candidates = gate.standardizer_.transform(candidates[available])
+        distances = cdist(z_out, z_candidates)
+        count, shortened = _gain(nearest, distances, threshold, weights[out_rows])
+        order = np.lexsort((-shortened * uncertainty[available], -count))
+        pick = np.flatnonzero(available)[order[0]]
+        available[pick] = False
+        current_doe = np.vstack([current_doe, candidates[pick]])
+        gate = KNNSupportGate(k=k, percentile=percentile).fit(current_doe)  # as the workflow would rebuild it
+        distance = gate.distance(production)
+        now_inside, now_held = distance <= gate.threshold_, distance <= threshold
+        points.append(candidates[pick])
+        brought.append(np.flatnonzero(now_inside & ~inside))
+        shares.append(float(now_inside.mean()))
+        held_shares.append(float(now_held.mean()))
+        stds.append(raw_std[pick])
+        inside, held = now_inside, now_held
+    return Proposal(np.array(points), brought, shares, share_before, np.array(stds), held_shares)
+
+
+def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
+    """The production cluster a point serves: its rows, time span, and the main level of each id column."""
+    if not len(rows):
+        return "no part on its own (prepares a neighbourhood for the next points)"
+    parts = [f"rows {rows.min() + 1}-{rows.max() + 1}"]
+    for column in production.columns:
+        if column in inputs:
+            continue
+        values = production[column].iloc[rows]
+        if values.dtype.kind in "OUT" or str(values.dtype) in ("string", "str"):
+            as_time = pd.to_datetime(values, errors="coerce", format="mixed")
+            if as_time.notna().all():
+                parts.append(f"{column} {as_time.min():%Y-%m-%d %H:%M} to {as_time.max():%Y-%m-%d %H:%M}")
+                continue
+            counts = values.value_counts()
+            if len(counts) <= max(3, len(rows) // 2):
+                parts.append(f"{column} {counts.index[0]} ({counts.iloc[0] / len(rows):.0%})"
+                             + (f" and {len(counts) - 1} more" if len(counts) > 1 else ""))
+    return "; ".join(parts)
+
+
+def proposals_table(proposal: Proposal, production: pd.DataFrame, inputs, n_production: int) -> pd.DataFrame:
+    """proposed_simulations.csv: the points in the DoE's columns, with what each brings."""
+    table = pd.DataFrame(proposal.points.reshape(-1, len(inputs)), columns=list(inputs))
+    table.insert(0, "proposal", np.arange(1, len(table) + 1))
+    table["parts_brought_in"] = [len(rows) for rows in proposal.brought_in]
+    table["share_in_support_after"] = proposal.share_after
+    table["share_within_todays_threshold"] = proposal.share_after_fixed_threshold
+    table["surrogate_std_here"] = proposal.surrogate_std
+    table["serves"] = [_served(production, rows, inputs) for rows in proposal.brought_in]
+    table.attrs["share_before"] = proposal.share_before
+    return table

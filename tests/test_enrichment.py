@@ -1,0 +1,69 @@
+"""Proposed simulations: where production runs outside the support, on constructed plants."""
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from hybridtwin import enrichment
+from hybridtwin.gate import KNNSupportGate
+
+from .conftest import ROOT
+
+
+def plant(seed=0):
+    """A DoE in the unit box of 4 inputs; production in two tight clusters beyond it, the later one larger."""
+    rng = np.random.default_rng(seed)
+    doe = rng.random((40, 4))
+    early = rng.normal([1.6, 0.5, 0.5, 0.5], 0.05, (300, 4))
+    late = rng.normal([0.5, 1.7, 0.5, 0.5], 0.05, (700, 4))
+    inside = rng.random((200, 4)) * 0.6 + 0.2
+    return doe, np.vstack([early, inside, late])
+
+
+def test_proposals_go_where_production_runs_outside_and_the_share_is_the_rebuilt_gates():
+    doe, production = plant()
+    settings = enrichment.EnrichmentSettings(n_points=6, n_candidates=50, seed=1)
+    proposal = enrichment.propose(doe, production, 5, 95, settings)
+    assert proposal.share_before < 0.3
+    assert len(proposal.points) >= 2
+    # each point sits at one of the two clusters, and both clusters get points
+    near_early = np.linalg.norm(proposal.points - [1.6, 0.5, 0.5, 0.5], axis=1) < 0.3
+    near_late = np.linalg.norm(proposal.points - [0.5, 1.7, 0.5, 0.5], axis=1) < 0.3
+    assert (near_early | near_late).all() and near_early.any() and near_late.any()
+    # the recent, larger cluster first
+    assert near_late[0]
+    # the share after each point is the share of a gate fitted from scratch on the enlarged DoE
+    for j, share in enumerate(proposal.share_after, start=1):
+        rebuilt = KNNSupportGate(k=5, percentile=95).fit(np.vstack([doe, proposal.points[:j]]))
+        assert share == pytest.approx(rebuilt.predict(production).mean())
+    assert proposal.share_after[-1] > 0.9
+    assert sum(len(rows) for rows in proposal.brought_in) == pytest.approx(
+        (proposal.share_after[-1] - proposal.share_before) * len(production), abs=len(production) * 0.05)
+
+
+def test_proposals_stay_inside_the_physical_limits():
+    doe, production = plant(2)
+    low, high = enrichment.physical_limits(doe, production, 0.05)
+    proposal = enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=4, seed=3))
+    assert ((proposal.points >= low) & (proposal.points <= high)).all()
+
+
+def test_nothing_to_propose_when_every_part_is_in_support_gives_an_empty_table_with_its_header():
+    doe, _ = plant()
+    production = doe[:30] + 0.001
+    proposal = enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=5))
+    table = enrichment.proposals_table(proposal, pd.DataFrame(production, columns=list("abcd")), list("abcd"), 30)
+    assert len(table) == 0
+    assert list(table.columns[:5]) == ["proposal", "a", "b", "c", "d"] and "parts_brought_in" in table
+
+
+@pytest.mark.parametrize("n_points", [0, 201, 2.5])
+def test_n_points_out_of_range_is_a_config_error(n_points):
+    schema = yaml.safe_load((Path(ROOT) / "workflow/schemas/config.schema.yaml").read_text())
+    config = yaml.safe_load((Path(ROOT) / "config/config.yaml").read_text())
+    config["enrichment"] = {"n_points": n_points}
+    with pytest.raises(jsonschema.ValidationError, match="n_points|enrichment"):
+        jsonschema.validate(config, schema)
