@@ -137,6 +137,22 @@ def _stack_members(predictions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {m: p for m, p in predictions.items() if m in RECOMMENDABLE and m != STACK}
 
 
+def _best(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> str:
+    """The recommendable model with the lowest RMSE on the rows where every one of them has a value.
+
+    The same rows for all: each part's noise then weighs on every model alike, and a difference far
+    below the noise still shows (on different rows, the noise of the rows decides).
+    """
+    contenders = {m: p for m, p in candidates.items() if m in RECOMMENDABLE}
+    common = rows[np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)]
+    if not len(common):  # no row where all have a value: each on its own rows
+        scores = {m: rmse(measured[rows][np.isfinite(p[rows])], p[rows][np.isfinite(p[rows])])
+                  for m, p in contenders.items()}
+    else:
+        scores = {m: rmse(measured[common], p[common]) for m, p in contenders.items()}
+    return min(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
+
+
 class RegionIntervals:
     """Mondrian split-conformal intervals of several models, with the recommended model per region.
 
@@ -171,15 +187,12 @@ class RegionIntervals:
             if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
                 weights[name] = stack_weights(measured, members, complete)
                 candidates[STACK] = _cross_fitted_stack(measured, members, complete)
-            scores = {}
             for model, prediction in candidates.items():
                 scored = rows[np.isfinite(prediction[rows])]  # a peer has no honest value on the parts it trained on
-                if not len(scored):
-                    continue
-                table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]), 6).tolist()
-                if model in RECOMMENDABLE:
-                    scores[model] = rmse(measured[scored], prediction[scored])
-            recommended[name] = min(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
+                if len(scored):
+                    table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]),
+                                                                 6).tolist()
+            recommended[name] = _best(measured, {m: p for m, p in candidates.items() if m in table}, rows)
         outside = calibration & (region != IN_SUPPORT)
         max_distance = (float(np.max(np.asarray(distance, float)[outside]))
                         if outside.any() and distance is not None else None)

@@ -110,3 +110,16 @@ def test_a_wider_level_gives_a_wider_interval_and_an_unknown_region_none():
     assert (wide > narrow).all()
     lower, upper = fitted.interval("hybrid", truth[:2], np.array(["out_of_support_9", "in_support"], object), 0.9)
     assert np.isnan(lower[0]) and np.isfinite(lower[1])
+
+
+def test_the_choice_compares_models_on_the_same_parts():
+    # the peer is worse (1.0 against 0.3 mm), but it has values only on the quiet half of the parts;
+    # scored each on its own parts, the noise of those parts would pick it
+    rng = np.random.default_rng(0)
+    n = 2000
+    noise = np.where(np.arange(n) < n // 2, 3.0, 0.5)
+    truth = rng.normal(0, 3, n)
+    measured = truth + rng.normal(0, 1, n) * noise
+    candidates = {"hybrid": truth + rng.normal(0, 0.3, n),
+                  "gp_discrepancy": np.where(np.arange(n) < n // 2, np.nan, truth + rng.normal(0, 1.0, n))}
+    assert intervals._best(measured, candidates, np.arange(n)) == "hybrid"
