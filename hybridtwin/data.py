@@ -482,26 +482,39 @@ def _setting(config: dict, section: str, key: str, default: int, minimum: int) -
     return int(value)
 
 
-def load_datasets(config: dict) -> dict[str, pd.DataFrame]:
-    """Read and check the three configured files; warn on usable oddities."""
+ROLES = ("doe", "production", "matched")
+
+
+def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
+    """Read and check the configured files of ``roles``; warn on usable oddities.
+
+    Each file is checked with what it needs besides itself: production against the DoE's ranges,
+    matched cases against the production log (a matched case must not be a training part).
+    """
     columns = Columns.from_config(config.get("columns"))
     fmt = CsvFormat.from_config(config.get("csv"))
     folds = _setting(config, "cv", "folds", 5, minimum=2)
     k = _setting(config, "gate", "k", 5, minimum=1)
     paths = config.get("data") or {}
-    for role in ("doe", "production", "matched"):
+    needed = set(roles) | ({"doe"} if "production" in roles else set()) | ({"production"} if "matched" in roles else set())
+    for role in (role for role in ROLES if role in needed):
         if not isinstance(paths.get(role), (str, Path)) or not str(paths.get(role)).strip():
             raise InputError(f"config data.{role} is not set: name the {role} CSV file "
                              f"(got {paths.get(role)!r})")
-    doe = load_doe(paths["doe"], columns, fmt, folds=folds, k=k)
-    production = load_production(paths["production"], columns, fmt)
-    matched = load_matched(paths["matched"], columns, fmt)
-    warn_matched_in_production(matched, production, columns.inputs, config["data"])
-    far = describe_out_of_range(range_report(doe, production, columns.inputs), limit=0.5)
-    if far:
-        warn(f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
-             f"(more than half a DoE span):\n{far}")
-    return {"doe": doe, "production": production, "matched": matched}
+    frames = {}
+    if "doe" in needed:
+        frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=folds, k=k)
+    if "production" in needed:
+        frames["production"] = load_production(paths["production"], columns, fmt)
+    if "matched" in needed:
+        frames["matched"] = load_matched(paths["matched"], columns, fmt)
+        warn_matched_in_production(frames["matched"], frames["production"], columns.inputs, config["data"])
+    if "production" in roles:
+        far = describe_out_of_range(range_report(frames["doe"], frames["production"], columns.inputs), limit=0.5)
+        if far:
+            warn(f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
+                 f"(more than half a DoE span):\n{far}")
+    return {role: frames[role] for role in roles}
 
 
 def read_checked(path) -> pd.DataFrame:

@@ -89,14 +89,22 @@ def journal_lock(storage: str) -> optuna.storages.journal.JournalFileSymlinkLock
 
 
 def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: dict | None = None,
-         study_prefix: str = "residual", n_jobs: int = 1) -> optuna.Study:
-    """Run (or resume) the TPE study until it holds ``n_trials`` finished trials."""
+         study_prefix: str = "residual", n_jobs: int = 1, warm_start: int = 0) -> optuna.Study:
+    """Run (or resume) the TPE study until it holds ``n_trials`` finished trials.
+
+    ``warm_start``: a new study (new data, say an enriched DoE) first tries the best ``warm_start``
+    parameter sets of the latest earlier study in the same storage, instead of starting from scratch.
+    """
     space = space or DEFAULT_SEARCH_SPACE
     X, y = np.asarray(X, float), np.asarray(y, float)
     name = f"{study_prefix}-{fingerprint(X, y, space, n_folds, seed)}"
-    study = optuna.create_study(study_name=name, storage=open_storage(storage), direction="minimize",
+    opened = open_storage(storage)
+    study = optuna.create_study(study_name=name, storage=opened, direction="minimize",
                                 sampler=optuna.samplers.TPESampler(seed=seed), load_if_exists=True,
                                 pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0))
+    if warm_start and not study.trials:
+        for params in earlier_best(opened, name, study_prefix, space, warm_start):
+            study.enqueue_trial(params)
     done = _complete(study)
     if done:
         log.info("resuming study %s with %d finished trial(s)", name, done)
@@ -144,6 +152,25 @@ def progress(n_trials: int):
 
 
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+
+
+def _inside(params: dict, space: dict) -> bool:
+    return set(params) == set(space) and all(space[k]["low"] <= v <= space[k]["high"] for k, v in params.items())
+
+
+def earlier_best(storage, name: str, prefix: str, space: dict, n: int) -> list[dict]:
+    """The best ``n`` completed parameter sets (inside ``space``) of the latest other study named ``prefix-*``."""
+    earlier = [s for s in optuna.get_all_study_summaries(storage, include_best_trial=False)
+               if s.study_name.startswith(f"{prefix}-") and s.study_name != name and s.datetime_start is not None]
+    if not earlier:
+        return []
+    latest = max(earlier, key=lambda s: s.datetime_start)
+    trials = optuna.load_study(study_name=latest.study_name, storage=storage).get_trials(
+        deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    ranked = sorted((t for t in trials if _inside(t.params, space)), key=lambda t: (t.value, t.number))
+    log.info("warm start from study %s: its best %d of %d trials first", latest.study_name, min(n, len(ranked)),
+             len(trials))
+    return [dict(t.params) for t in ranked[:n]]
 
 
 def _complete(study: optuna.Study) -> int:

@@ -1,7 +1,6 @@
 """Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE."""
 import logging
 
-
 from hybridtwin import io, residual
 from hybridtwin.data import read_checked
 from hybridtwin.runner import run
@@ -15,7 +14,7 @@ def main(snakemake):
     study = residual.tune(production.loc[inside, snakemake.params.inputs], residuals.loc[inside, "residual_approx"],
                           n_trials=snakemake.params.n_trials, n_folds=snakemake.params.folds,
                           seed=snakemake.params.seed, storage=snakemake.params.storage, space=space,
-                          n_jobs=snakemake.threads)
+                          n_jobs=snakemake.threads, warm_start=snakemake.params.warm_start)
     best = residual.best_params(study, space, snakemake.params.n_trials)
     logging.info("study %s: best parameters %s", study.study_name, best)
     io.write_json({"study": study.study_name, "params": best}, snakemake.output.best)

@@ -1,4 +1,4 @@
-"""Check the user's three files and write checked copies for the later steps."""
+"""Check one of the user's files (with what it is checked against) and write its checked copy."""
 import warnings
 
 from hybridtwin import data, io
@@ -6,14 +6,14 @@ from hybridtwin.runner import run
 
 
 def main(snakemake):
+    role = snakemake.wildcards.role
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", data.DataWarning)
-        frames = data.load_datasets(snakemake.params.settings)
+        frame = data.load_datasets(snakemake.params.settings, roles=(role,))[role]
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
-    for name in ("doe", "production", "matched"):
-        io.write_csv(frames[name], snakemake.output[name], float_format=None)  # exact round trip
-    lines = [f"{name}: {len(frames[name])} rows, {frames[name].shape[1]} columns" for name in frames]
+    io.write_csv(frame, snakemake.output.table, float_format=None)  # exact round trip
+    lines = [f"{role}: {len(frame)} rows, {frame.shape[1]} columns"]
     lines += [f"WARNING: {warning.message}" for warning in caught]
     with io.atomic_path(snakemake.output.report) as temporary:
         temporary.write_text("\n".join(lines) + "\n")

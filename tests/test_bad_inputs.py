@@ -450,8 +450,10 @@ def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
     configfile = case.folder / "config.yaml"
     configfile.write_text(yaml.safe_dump(config))
     environment = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    # the target stops the run after rule validate_inputs, should the data pass
-    return run_command([sys.executable, "-m", "snakemake", "results/data/doe.csv", "-s", str(ROOT / "Snakefile"),
+    # the targets stop the run after the validate_inputs jobs, should the data pass
+    return run_command([sys.executable, "-m", "snakemake", *(f"results/data/{role}.csv" for role in ("doe", "production",
+                                                                                               "matched")),
+                        "-s", str(ROOT / "Snakefile"),
                         "-d", str(case.folder), "--configfile", str(configfile), "--cores", "1", "-q"],
                        timeout=300, env=environment)
 

@@ -547,3 +547,22 @@ def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
     frame.to_csv(tmp_path / "pandas.csv", index=False, float_format=io.FLOAT_FORMAT, lineterminator="\n", sep=sep,
                  decimal=decimal)
     assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+def test_a_study_on_new_data_starts_from_the_earlier_studys_best_trials(tmp_path):
+    rng = np.random.default_rng(0)
+    X = rng.random((150, 3))
+    y = X[:, 0] + rng.normal(0, 0.1, 150)
+    space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
+    journal = str(tmp_path / "journal.log")
+    first = residual.tune(X, y, n_trials=6, n_folds=3, seed=1, storage=journal, space=space)
+    best = sorted((t for t in first.trials if t.state == optuna.trial.TrialState.COMPLETE),
+                  key=lambda t: (t.value, t.number))[:3]
+    enriched = np.vstack([X, rng.random((10, 3))])
+    second = residual.tune(enriched, np.append(y, rng.random(10)), n_trials=4, n_folds=3, seed=1, storage=journal,
+                           space=space, warm_start=3)
+    assert second.study_name != first.study_name
+    assert [t.params for t in second.trials[:3]] == [t.params for t in best]
+    cold = residual.tune(enriched[:-1], np.append(y, rng.random(9)), n_trials=2, n_folds=3, seed=1,
+                         storage=str(tmp_path / "other.log"), space=space, warm_start=3)
+    assert cold.trials[0].params != best[0].params  # nothing earlier in its storage: a cold start

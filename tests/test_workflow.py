@@ -377,3 +377,16 @@ def test_results_dir_puts_everything_a_run_writes_under_it(tmp_path):
     summary = snakemake(tmp_path, "--summary", config=path).stdout.splitlines()
     outputs = [line.split("\t")[0] for line in summary if "\t" in line and not line.startswith("output_file")]
     assert len(outputs) > 40 and all(name.startswith("runs/plant_a/") for name in outputs), outputs
+
+
+def test_appending_production_reruns_neither_the_surrogate_nor_the_doe_check(run_dir, tmp_path):
+    workdir = tmp_path / "append"
+    shutil.copytree(run_dir, workdir, symlinks=True)
+    production = workdir / "results/demo/production.csv"
+    lines = production.read_text().splitlines(keepends=True)
+    production.write_text("".join(lines + lines[-50:]))  # a week's parts, as a plant appends them
+    dry = snakemake(workdir, "-n", config=TEST_CONFIG).stdout
+    planned = set(re.findall(r"^(?:local)?rule (\w+):", dry, re.M))
+    assert {"validate_inputs", "residuals", "tune_residual", "prediction_intervals"} <= planned
+    assert not {"surrogate_fit", "surrogate_cv", "standardize", "demo_data"} & planned, planned
+    assert "output: results/data/doe.csv" not in dry and "output: results/data/production.csv" in dry

@@ -34,6 +34,27 @@ MODELS = f"{RESULTS}/models"
 DEMO = f"{RESULTS}/demo"
 
 
+CHECKED = {role: f"{RESULTS}/data/{role}.csv" for role in ("doe", "production", "matched")}
+# what each file is checked against besides itself
+CHECKED_AGAINST = {"doe": [], "production": ["doe"], "matched": ["production"]}
+
+
+def raw_inputs_of(wildcards):
+    return {"table": config["data"][wildcards.role],
+            **{other: config["data"][other] for other in CHECKED_AGAINST[wildcards.role]}}
+
+
+def validation_settings(wildcards):
+    """The config a file's check reads: its own path and those it is checked against, columns, format
+    (and, for the DoE, the folds and k it must have rows for)."""
+    roles = [wildcards.role, *CHECKED_AGAINST[wildcards.role]]
+    settings = {"data": {role: config["data"][role] for role in roles}, "columns": config["columns"],
+                "csv": config["csv"]}
+    if "doe" in roles:
+        settings.update(cv=config["cv"], gate=config["gate"])
+    return settings
+
+
 def log_of(rule_name, suffix=""):
     return f"{RESULTS}/logs/{rule_name}{suffix}.log"
 

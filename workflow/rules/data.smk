@@ -23,31 +23,30 @@ rule demo_data:
 
 
 rule validate_inputs:
+    # one job per file, so a checked copy is rewritten only when its file (or what it is checked against) changes
     input:
-        doe=config["data"]["doe"],
-        production=config["data"]["production"],
-        matched=config["data"]["matched"],
+        unpack(raw_inputs_of),
     output:
-        doe=f"{RESULTS}/data/doe.csv",
-        production=f"{RESULTS}/data/production.csv",
-        matched=f"{RESULTS}/data/matched.csv",
-        report=f"{RESULTS}/data/validation_report.txt",
+        table=f"{RESULTS}/data/{{role}}.csv",
+        report=f"{RESULTS}/data/validation_{{role}}.txt",
+    wildcard_constraints:
+        role="doe|production|matched",
     params:
         code=PACKAGE_CODE,
-        settings={key: config[key] for key in ("data", "columns", "csv", "cv", "gate")},
+        settings=validation_settings,
     conda:
         "../envs/hybridtwin.yaml"
     log:
-        log_of("validate_inputs"),
+        log_of("validate_inputs", "_{role}"),
     benchmark:
-        benchmark_of("validate_inputs")
+        benchmark_of("validate_inputs", "_{role}")
     script:
         "../../scripts/validate_inputs.py"
 
 
 rule standardize:
     input:
-        doe=rules.validate_inputs.output.doe,
+        doe=CHECKED["doe"],
     output:
         model=f"{MODELS}/doe_standardization.json",
         table=f"{TABLES}/doe_standardization.csv",
@@ -66,9 +65,9 @@ rule standardize:
 
 rule support_gate:
     input:
-        doe=rules.validate_inputs.output.doe,
-        production=rules.validate_inputs.output.production,
-        matched=rules.validate_inputs.output.matched,
+        doe=CHECKED["doe"],
+        production=CHECKED["production"],
+        matched=CHECKED["matched"],
         standardization=rules.standardize.output.model,
     output:
         model=f"{MODELS}/support_gate.json",
@@ -94,8 +93,8 @@ rule support_gate:
 
 rule table1:
     input:
-        doe=rules.validate_inputs.output.doe,
-        matched=rules.validate_inputs.output.matched,
+        doe=CHECKED["doe"],
+        matched=CHECKED["matched"],
         support=rules.support_gate.output.production,
     output:
         table=report(f"{TABLES}/table1_datasets.csv", caption="../report/table1.rst", category="1. Data and support"),

@@ -5,7 +5,7 @@ N_CAUSE_FIGURES = config["diagnosis"]["n_figures"]
 
 rule diagnose:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
         surrogate=rules.surrogate_fit.output.model,
     output:
@@ -38,9 +38,9 @@ rule diagnose:
 rule model_extension:
     input:
         unpack(demo_truth_inputs),
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
-        matched=rules.validate_inputs.output.matched,
+        matched=CHECKED["matched"],
         matched_cases=rules.matched_check.output.cases,
         hybrid=rules.predict_production.output.predictions,
         summary=rules.diagnose.output.summary,

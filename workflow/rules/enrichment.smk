@@ -3,8 +3,8 @@
 
 rule propose_simulations:
     input:
-        doe=rules.validate_inputs.output.doe,
-        production=rules.validate_inputs.output.production,
+        doe=CHECKED["doe"],
+        production=CHECKED["production"],
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:

@@ -3,7 +3,7 @@
 
 rule predict_production:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
         support=rules.support_gate.output.production,
         filtered_model=f"{MODELS}/residual_xgb_filtered.json",
@@ -27,7 +27,7 @@ rule predict_production:
 
 rule matched_check:
     input:
-        matched=rules.validate_inputs.output.matched,
+        matched=CHECKED["matched"],
         support=rules.support_gate.output.matched,
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",
@@ -92,7 +92,7 @@ rule sensitivity:
 
 rule synthetic:
     input:
-        doe=rules.validate_inputs.output.doe,
+        doe=CHECKED["doe"],
         gate=rules.support_gate.output.model,
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",

@@ -3,9 +3,9 @@
 
 rule peer:
     input:
-        doe=rules.validate_inputs.output.doe,
-        production=rules.validate_inputs.output.production,
-        matched=rules.validate_inputs.output.matched,
+        doe=CHECKED["doe"],
+        production=CHECKED["production"],
+        matched=CHECKED["matched"],
         residuals=rules.residuals.output.residuals,
         surrogate=rules.surrogate_fit.output.model,
     output:

@@ -5,10 +5,10 @@ rule prediction_intervals:
     input:
         unpack(demo_truth_inputs),
         predictions=rules.production_predictions.output.predictions,
-        production=rules.validate_inputs.output.production,
-        doe=rules.validate_inputs.output.doe,
+        production=CHECKED["production"],
+        doe=CHECKED["doe"],
         gate=rules.support_gate.output.model,
-        matched=rules.validate_inputs.output.matched,
+        matched=CHECKED["matched"],
         matched_models=rules.model_extension.output.matched_predictions,
         matched_cases=rules.matched_check.output.cases,
         peers_matched=expand(f"{RESULTS}/peers/{{peer}}_matched.csv", peer=PEERS),

@@ -3,7 +3,7 @@
 
 rule tune_residual:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
     output:
         best=f"{RESULTS}/tuning/best_params.json",
@@ -16,6 +16,7 @@ rule tune_residual:
         folds=FOLDS,
         seed=SEED,
         n_trials=config["tuning"]["n_trials"],
+        warm_start=config["tuning"]["warm_start"],
         search_space=config["tuning"]["search_space"],
         # the study journal lives outside the outputs, so a killed run resumes it
         storage=config["tuning"]["storage"] or f"{RESULTS}/optuna/journal.log",
@@ -32,7 +33,7 @@ rule tune_residual:
 
 rule residual_cv:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
         best=rules.tune_residual.output.best,
     output:
@@ -77,7 +78,7 @@ rule table3:
 
 rule residual_fit:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
         best=rules.tune_residual.output.best,
     output:

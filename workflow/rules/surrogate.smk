@@ -3,7 +3,7 @@
 
 rule surrogate_cv:
     input:
-        doe=rules.validate_inputs.output.doe,
+        doe=CHECKED["doe"],
     output:
         table=report(f"{TABLES}/table2_surrogate_cv.csv", caption="../report/table2.rst", category="2. Surrogate"),
         folds=f"{TABLES}/surrogate_cv_folds.csv",
@@ -28,7 +28,7 @@ rule surrogate_cv:
 
 rule surrogate_fit:
     input:
-        doe=rules.validate_inputs.output.doe,
+        doe=CHECKED["doe"],
     output:
         model=f"{MODELS}/surrogate_gpr.json",
     params:
@@ -49,7 +49,7 @@ rule surrogate_fit:
 
 rule residuals:
     input:
-        production=rules.validate_inputs.output.production,
+        production=CHECKED["production"],
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:
