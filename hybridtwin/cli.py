@@ -25,10 +25,15 @@ def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:
         name, sep, value = pair.partition("=")
         if not sep:
             raise InputError(f"--set {pair!r}: write NAME=VALUE, for example --set {predictor.inputs[0]}=1.0")
+        number = value.strip()
+        if predictor.csv.decimal == ",":
+            number = number.replace(",", ".", 1) if "." not in number else "not a number"
         try:
-            values[name.strip()] = float(value.strip().replace(",", "."))  # one number: a comma can only be decimal
+            values[name.strip()] = float(number)
         except ValueError:
-            raise InputError(f"--set {pair!r}: value {value!r} of {name.strip()!r} is not a number") from None
+            hint = (" (the run's decimal mark is '.': write 0.75, without digit grouping)" if "," in value
+                    else "")
+            raise InputError(f"--set {pair!r}: value {value!r} of {name.strip()!r} is not a number{hint}") from None
     unknown = [name for name in values if name not in predictor.inputs]
     missing = [name for name in predictor.inputs if name not in values]
     if unknown or missing:

@@ -137,8 +137,8 @@ def _stack_members(predictions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {m: p for m, p in predictions.items() if m in RECOMMENDABLE and m != STACK}
 
 
-def _best(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> str:
-    """The recommendable model with the lowest RMSE on the rows where every one of them has a value.
+def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> list[str]:
+    """The recommendable models, best first, by RMSE on the rows where every one of them has a value.
 
     The same rows for all: each part's noise then weighs on every model alike, and a difference far
     below the noise still shows (on different rows, the noise of the rows decides).
@@ -150,7 +150,7 @@ def _best(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> str:
                   for m, p in contenders.items()}
     else:
         scores = {m: rmse(measured[common], p[common]) for m, p in contenders.items()}
-    return min(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
+    return sorted(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
 
 
 class RegionIntervals:
@@ -160,10 +160,10 @@ class RegionIntervals:
     region's calibration rows; stored as such (JSON), refitted with crepes on load.
     """
 
-    def __init__(self, calibration: dict[str, dict[str, list[float]]], recommended: dict[str, str],
+    def __init__(self, calibration: dict[str, dict[str, list[float]]], ranking: dict[str, list[str]],
                  edges: list[float], max_distance: float | None, weights: dict[str, dict[str, float]] | None = None):
         self.calibration = calibration
-        self.recommended = recommended
+        self.ranking = ranking
         self.weights = weights or {}
         self.edges = list(edges)
         self.max_distance = max_distance
@@ -178,7 +178,7 @@ class RegionIntervals:
             edges: list[float], distance=None, seed: int = 0) -> "RegionIntervals":
         measured = np.asarray(measured, float)
         region = np.asarray(region, object)
-        table, recommended, weights = {}, {}, {}
+        table, ranking, weights = {}, {}, {}
         members = _stack_members(honest)
         for name in sorted(set(region[calibration])):
             rows = _subsample(np.flatnonzero(calibration & (region == name)), MAX_CALIBRATION_ROWS, seed)
@@ -192,11 +192,11 @@ class RegionIntervals:
                 if len(scored):
                     table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]),
                                                                  6).tolist()
-            recommended[name] = _best(measured, {m: p for m, p in candidates.items() if m in table}, rows)
+            ranking[name] = _ranking(measured, {m: p for m, p in candidates.items() if m in table}, rows)
         outside = calibration & (region != IN_SUPPORT)
         max_distance = (float(np.max(np.asarray(distance, float)[outside]))
                         if outside.any() and distance is not None else None)
-        return cls(table, recommended, edges, max_distance, weights)
+        return cls(table, ranking, edges, max_distance, weights)
 
     def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
         """The predictions with the stack added (each row blended with its region's weights; NaN without)."""
@@ -209,8 +209,12 @@ class RegionIntervals:
         return {**predictions, STACK: stacked}
 
     @property
+    def recommended(self) -> dict[str, str]:
+        return {name: order[0] for name, order in self.ranking.items()}
+
+    @property
     def regions(self) -> list[str]:
-        return sorted(self.recommended)
+        return sorted(self.ranking)
 
     def interval(self, model: str, prediction, region, level: float) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds at ``level``; NaN in a region without calibration rows."""
@@ -224,24 +228,35 @@ class RegionIntervals:
             lower[known], upper[known] = bounds[:, 0], bounds[:, 1]
         return lower, upper
 
-    def recommend(self, region) -> np.ndarray:
-        """The recommended model's name per row; the paper's gated hybrid where a region has no calibration."""
-        return np.array([self.recommended.get(r, "hybrid_gated") for r in region], dtype=object)
+    def recommend(self, region, predictions: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        """The recommended model's name per row: the best of its region's ranking that has a value there
+        (a model whose inputs a row lacks has none); the paper's gated hybrid where a region has no calibration."""
+        region = np.asarray(region, object)
+        chosen = np.full(len(region), "hybrid_gated", dtype=object)
+        for name, order in self.ranking.items():
+            rows = np.flatnonzero(region == name)
+            for model in reversed(order):  # from the worst up: the best model with a value is written last
+                if predictions is None:
+                    chosen[rows] = model
+                elif model in predictions:
+                    chosen[rows[np.isfinite(predictions[model][rows])]] = model
+        return chosen
 
     def to_dict(self) -> dict:
-        return {"calibration": self.calibration, "recommended": self.recommended, "distance_edges": self.edges,
+        return {"calibration": self.calibration, "recommended": self.recommended, "ranking": self.ranking,
+                "distance_edges": self.edges,
                 "max_calibrated_distance": self.max_distance, "stack_weights": self.weights}
 
     @classmethod
     def from_dict(cls, data: dict) -> "RegionIntervals":
-        return cls(data["calibration"], data["recommended"], data["distance_edges"], data["max_calibrated_distance"],
+        return cls(data["calibration"], data["ranking"], data["distance_edges"], data["max_calibrated_distance"],
                    data.get("stack_weights"))
 
 
 def recommended_prediction(intervals: RegionIntervals, predictions: dict[str, np.ndarray], region,
                            level: float) -> pd.DataFrame:
     """pred_recommended, recommended_model, pred_lower, pred_upper per row."""
-    chosen = intervals.recommend(region)
+    chosen = intervals.recommend(region, predictions)
     n = len(chosen)
     out = pd.DataFrame({"pred_recommended": np.full(n, np.nan), "recommended_model": chosen,
                         "pred_lower": np.full(n, np.nan), "pred_upper": np.full(n, np.nan)})
@@ -322,12 +337,16 @@ def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration:
                     row["rmse_truth_test"] = rmse(reference, prediction)
                 rows.append(row)
     table = pd.DataFrame(rows)
+    # the calibration rows a region's intervals rest on (a seeded sample of MAX_CALIBRATION_ROWS where there are more)
     table["n_calibration"] = table["region"].map(
-        {name: int(np.sum(calibration & (region == name))) for name in set(region)}).fillna(int(calibration.sum()))
+        {name: min(int(np.sum(calibration & (region == name))), MAX_CALIBRATION_ROWS) for name in set(region)}
+    ).fillna(min(int(calibration.sum()), MAX_CALIBRATION_ROWS))
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
-        "the model (even blocks); predictions out-of-fold inside the support, models never trained on the row "
-        "outside it; a peer is scored on the rows it did not train on; coverage of the measured value"
+        "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
+        "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
+        "seen), models never trained on the row outside it; a peer is scored on the rows it did not train on; "
+        "coverage of the measured value"
         + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if truth is not None else ""))
     return table
 

@@ -31,7 +31,8 @@ FILES = {"surrogate": "surrogate_gpr.json", "gate": "support_gate.json",
          "residual_filtered": "residual_xgb_filtered.json", "residual_unfiltered": "residual_xgb_unfiltered.json",
          "extension": "extension.json", "remainder": "residual_xgb_extended.json",
          "gp_discrepancy": "peer_gp_discrepancy.json", "cokriging": "peer_cokriging.json"}
-# columns added to each row, in this order (a contract read by outside tools)
+# columns added to each row, in this order (a contract read by outside tools); after outside_doe_range come
+# beyond_<input> per input: how far the row lies beyond the DoE's range in that input's unit (0 inside)
 ANSWER_COLUMNS = ("in_support", "knn_distance", "outside_doe_range", "in_domain", "region",
                   "pred_surrogate", "pred_surrogate_std", "pred_hybrid_gated", "pred_hybrid", "pred_hybrid_unfiltered",
                   "pred_extended", "pred_extended_hybrid", "pred_gp_discrepancy", "pred_cokriging", "pred_stack",
@@ -75,7 +76,16 @@ class Predictor:
     @classmethod
     def load(cls, models: str | Path) -> "Predictor":
         """Load the models a workflow run wrote to ``models`` (its results/models folder)."""
-        folder = Path(models)
+        try:
+            return cls._load(Path(models))
+        except (OSError, ValueError, KeyError) as error:
+            if isinstance(error, data.InputError):
+                raise
+            raise data.InputError(f"models folder {str(models)!r}: {type(error).__name__}: {error}. Point --models at "
+                                  "the results/models folder of a finished run of this version of the workflow") from None
+
+    @classmethod
+    def _load(cls, folder: Path) -> "Predictor":
         if not (folder / MANIFEST).exists():
             raise data.InputError(f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
                                   "results/models folder of a finished workflow run")
@@ -104,13 +114,23 @@ class Predictor:
                                   f"the models need {', '.join(self.inputs)}")
         return frame[self.inputs].astype(float)
 
-    def predictions(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:
-        """Every model's prediction per row (the gated hybrid with the workflow's gate)."""
+    def predictions(self, frame: pd.DataFrame, in_support=None) -> dict[str, np.ndarray]:
+        """Every model's prediction per row (the gated hybrid with the workflow's gate).
+
+        The extension needs its causes' columns: where the table lacks one (a stroke counter, a
+        coil id), ``extended`` and ``extended_hybrid`` are NaN and the recommendation passes them by.
+        """
         X = self._inputs(frame)
         surrogate, std = self.surrogate.predict(X, return_std=True)
-        inside = self.gate.predict(X)
+        inside = self.gate.predict(X) if in_support is None else np.asarray(in_support, bool)
         filtered = self.residual_filtered.predict(X)
-        extended = surrogate + self.extension.predict(frame)
+        lacking = sorted({c for cause in self.extension._causes() for c in cause.columns} - set(frame.columns))
+        if lacking:
+            log.warning("no column %s in the table: the extension (whose causes need it) gives no prediction",
+                        ", ".join(lacking))
+            extended = np.full(len(frame), np.nan)
+        else:
+            extended = surrogate + self.extension.predict(frame)
         out = {"surrogate": surrogate, "surrogate_std": std,
                "hybrid_gated": np.where(inside, surrogate + filtered, surrogate), "hybrid": surrogate + filtered,
                "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
@@ -129,19 +149,24 @@ class Predictor:
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
-        predictions = self.intervals.with_stack(self.predictions(frame), region)
+        predictions = self.intervals.with_stack(self.predictions(frame, in_support), region)
         answers = {"in_support": in_support, "knn_distance": distance,
                    "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
+                   **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
                    "in_domain": in_support & ~beyond_range, "region": region,
                    **{f"pred_{model}": value for model, value in predictions.items()}}
         recommended = intervals.recommended_prediction(self.intervals, predictions, region, level)
         answers.update({column: recommended[column].to_numpy() for column in recommended})
         answers["interval_level"] = np.full(len(frame), level)
         out = frame.copy()
-        for column in ANSWER_COLUMNS:
+        for column in [*ANSWER_COLUMNS[:3], *(f"beyond_{name}" for name in self.inputs), *ANSWER_COLUMNS[3:]]:
             if column in out.columns:
                 log.warning("the what-if table's column %r is replaced by the predictor's", column)
             out[column] = answers[column]
+        uncalibrated = ~np.isin(region, self.intervals.regions)
+        if uncalibrated.any():
+            log.warning("%d row(s) in a region without calibration rows (the run had no production there): no "
+                        "interval, the paper's gated hybrid as the prediction", int(uncalibrated.sum()))
         if self.intervals.max_distance is not None and np.any(distance > self.intervals.max_distance):
             log.warning("%d row(s) lie further from the DoE (kNN distance up to %.3g) than any production part the "
                         "intervals were calibrated on (%.3g): their intervals may be too narrow",
