@@ -29,24 +29,30 @@ def main() -> None:
     production = pd.read_csv(args.production)
     rows = np.random.default_rng(0).choice(len(production), args.rows, replace=args.rows > len(production))
     settings = production.iloc[rows].reset_index(drop=True)
-    in_memory = []
+    in_memory, without_peers = [], []
     for _ in range(args.repeats):
         start = time.perf_counter()
         answers = Predictor.load(args.models).predict(settings)
         in_memory.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        Predictor.load(args.models).predict(settings, with_peers=False)
+        without_peers.append(time.perf_counter() - start)
     with tempfile.TemporaryDirectory() as folder:
         new, out = Path(folder) / "new.csv", Path(folder) / "out.csv"
         settings.to_csv(new, index=False)
-        command = []
+        command, command_without = [], []
         for _ in range(args.repeats):
-            start = time.perf_counter()
-            subprocess.run(["hybridtwin", "predict", str(new), "--models", args.models, "-o", str(out)], check=True,
-                           capture_output=True)
-            command.append(time.perf_counter() - start)
+            for flags, times in (([], command), (["--without-peers"], command_without)):
+                start = time.perf_counter()
+                subprocess.run(["hybridtwin", "predict", str(new), "--models", args.models, "-o", str(out), *flags],
+                               check=True, capture_output=True)
+                times.append(time.perf_counter() - start)
     print(f"{args.rows:,} rows ({answers['in_support'].mean():.0%} in support), best of {args.repeats}:")
     print("| step | wall time [s] |\n|---|---:|")
     print(f"| Predictor.load + predict (table in memory) | {min(in_memory):.2f} |")
+    print(f"| the same, with_peers=False | {min(without_peers):.2f} |")
     print(f"| hybridtwin predict NEW.csv -o OUT.csv (fresh process: imports, CSV checks, writing) | {min(command):.2f} |")
+    print(f"| the same, --without-peers | {min(command_without):.2f} |")
 
 
 if __name__ == "__main__":

@@ -56,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--level", type=float, help="interval level, for example 0.9 (default: the run's)")
     predict.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                          help="one setting for a one-off question, instead of a CSV (repeat for each input)")
+    predict.add_argument("--without-peers", action="store_true",
+                         help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
+                              "a region's best model, the next one is recommended)")
     predict.add_argument("--sep", help="CSV separator, if not the run's csv.sep")
     predict.add_argument("--decimal", help="decimal mark, if not the run's csv.decimal")
     return parser
@@ -67,7 +70,7 @@ def predict(args) -> None:
     if bool(args.csv) == bool(args.set):
         raise InputError("give either a CSV file of settings or --set NAME=VALUE for every input, not both")
     frame = predictor.read(args.csv, fmt) if args.csv else _settings(args.set, predictor)
-    answers = predictor.predict(frame, args.level)
+    answers = predictor.predict(frame, args.level, with_peers=not args.without_peers)
     if args.output:
         predictor.write(answers, args.output, fmt)
         logging.getLogger("hybridtwin").info("%d row(s) written to %s", len(answers), args.output)

@@ -522,10 +522,10 @@ def read_checked(path) -> pd.DataFrame:
     return pd.read_csv(path, keep_default_na=False, na_values=[""])
 
 
-def check_support(production_in: np.ndarray, matched_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame,
-                  matched: pd.DataFrame, inputs, paths: dict, threshold: float) -> None:
-    """Stop when no production row is in support; warn for matched cases outside it."""
-    production_in, matched_in = np.asarray(production_in, bool), np.asarray(matched_in, bool)
+def check_support(production_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict,
+                  threshold: float) -> None:
+    """Stop when no production row is in support."""
+    production_in = np.asarray(production_in, bool)
     if not production_in.any():
         report = describe_out_of_range(range_report(doe, production, inputs))
         raise InputError(
@@ -535,6 +535,11 @@ def check_support(production_in: np.ndarray, matched_in: np.ndarray, doe: pd.Dat
                " Every column is inside the DoE ranges, but the combinations are far from every DoE point.")
             + "\nCheck the units and the column mapping (columns.inputs), or enrich the DoE towards the "
               "production window.")
+
+
+def warn_matched_outside(matched_in: np.ndarray, paths: dict) -> None:
+    """Matched cases outside the support are usable, but the gated hybrid reverts to the surrogate there."""
+    matched_in = np.asarray(matched_in, bool)
     if not matched_in.all():
         outside = np.flatnonzero(~matched_in)
         warn(f"matched file {str(paths['matched'])!r}: {len(outside)} of {len(matched_in)} matched case(s) lie "

@@ -165,17 +165,16 @@ PEERS = ("gp_discrepancy", "cokriging")
 class PeerFit:
     model: object
     production: pd.DataFrame  # pred_<kind> (final model) and pred_<kind>_oof (NaN on its training rows)
-    matched: np.ndarray
     fit_seconds: float
     n_train: int
 
 
-def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: pd.DataFrame, matched: pd.DataFrame,
-             matched_surrogate, inputs, target: str, settings: dict, seed: int) -> PeerFit:
-    """Fit one peer on the DoE and the in-support parts; predict every production row and matched case.
+def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: pd.DataFrame, inputs, target: str,
+             settings: dict, seed: int) -> PeerFit:
+    """Fit one peer on the DoE and the in-support parts; predict every production row.
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
-    residuals rule's table); ``matched_surrogate``: the surrogate at the matched cases.
+    residuals rule's table).
     """
     inputs = list(inputs)
     inside = np.flatnonzero(residuals["in_support"].astype(bool).to_numpy())
@@ -195,9 +194,8 @@ def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: 
     final = peer_prediction(kind, model, production[inputs], residuals["pred_surrogate"].to_numpy(float))
     honest = final.copy()
     honest[inside[trained]] = np.nan
-    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}),
-                   peer_prediction(kind, model, matched[inputs], np.asarray(matched_surrogate, float)),
-                   seconds, int(len(trained)))
+    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds,
+                   int(len(trained)))
 
 
 def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) -> np.ndarray:

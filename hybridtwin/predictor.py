@@ -114,7 +114,7 @@ class Predictor:
                                   f"the models need {', '.join(self.inputs)}")
         return frame[self.inputs].astype(float)
 
-    def predictions(self, frame: pd.DataFrame, in_support=None) -> dict[str, np.ndarray]:
+    def predictions(self, frame: pd.DataFrame, in_support=None, with_peers: bool = True) -> dict[str, np.ndarray]:
         """Every model's prediction per row (the gated hybrid with the workflow's gate).
 
         The extension needs its causes' columns: where the table lacks one (a stroke counter, a
@@ -135,11 +135,16 @@ class Predictor:
                "hybrid_gated": np.where(inside, surrogate + filtered, surrogate), "hybrid": surrogate + filtered,
                "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
                "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
-        out.update({kind: peers.peer_prediction(kind, model, X, surrogate) for kind, model in self.peers.items()})
+        out.update({kind: peers.peer_prediction(kind, model, X, surrogate) if with_peers else np.full(len(X), np.nan)
+                    for kind, model in self.peers.items()})
         return out
 
-    def predict(self, frame: pd.DataFrame, level: float | None = None) -> pd.DataFrame:
-        """The rows of ``frame`` (order and extra columns kept) with the answer columns added."""
+    def predict(self, frame: pd.DataFrame, level: float | None = None, with_peers: bool = True) -> pd.DataFrame:
+        """The rows of ``frame`` (order and extra columns kept) with the answer columns added.
+
+        ``with_peers=False`` skips the GP discrepancy and co-kriging (most of the time on large tables): their
+        columns and the stack are NaN, and where one of them is a region's best the next model is recommended.
+        """
         level = self.level if level is None else float(level)
         if not 0 < level < 1:
             raise data.InputError(f"interval level {level} must lie between 0 and 1 (for example 0.9)")
@@ -149,7 +154,7 @@ class Predictor:
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
-        predictions = self.intervals.with_stack(self.predictions(frame, in_support), region)
+        predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers), region)
         answers = {"in_support": in_support, "knn_distance": distance,
                    "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
                    **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},

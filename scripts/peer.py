@@ -1,26 +1,19 @@
 """An established peer of the hybrid (GP discrepancy or co-kriging), fitted on the DoE and the in-support parts."""
 import logging
 
-import pandas as pd
-
 from hybridtwin import io, peers
 from hybridtwin.data import read_checked
 from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
 
 
 def main(snakemake):
     p = snakemake.params
     kind = snakemake.wildcards.peer
-    matched = read_checked(snakemake.input.matched)
-    surrogate = GPRSurrogate.from_dict(io.read_json(snakemake.input.surrogate))
     fit = peers.fit_peer(kind, read_checked(snakemake.input.doe), read_checked(snakemake.input.production),
-                         read_checked(snakemake.input.residuals), matched, surrogate.predict(matched[p.inputs]),
-                         p.inputs, p.target, p.settings, p.seed)
+                         read_checked(snakemake.input.residuals), p.inputs, p.target, p.settings, p.seed)
     logging.info("%s: fitted on %d in-support parts in %.1f s", kind, fit.n_train, fit.fit_seconds)
     io.write_json(fit.model.to_dict(), snakemake.output.model)
     io.write_csv(fit.production, snakemake.output.predictions, float_format=None)
-    io.write_csv(pd.DataFrame({f"pred_{kind}": fit.matched}), snakemake.output.matched, float_format=None)
     io.write_json({"model": kind, "fit_seconds": fit.fit_seconds, "n_train": fit.n_train}, snakemake.output.summary)
 
 

@@ -4,6 +4,7 @@ import numpy as np
 from hybridtwin import intervals, io, peers, plots, predictor
 from hybridtwin.data import read_checked
 from hybridtwin.runner import run
+from hybridtwin.surrogate import GPRSurrogate
 
 
 def main(snakemake):
@@ -28,8 +29,11 @@ def main(snakemake):
     models = {**result.honest, "recommended": picked["pred_recommended"].to_numpy(float)}
     matched = {**read_checked(snakemake.input.matched_models).to_dict("series"),
                "hybrid_gated": read_checked(snakemake.input.matched_cases)["pred_hybrid_gated"]}
-    for path in snakemake.input.peers_matched:
-        matched.update(read_checked(path).rename(columns=lambda c: c.removeprefix("pred_")).to_dict("series"))
+    matched_inputs = read_checked(snakemake.input.matched)[p.inputs]
+    matched_surrogate = GPRSurrogate.from_dict(io.read_json(snakemake.input.surrogate)).predict(matched_inputs)
+    for kind, path in zip(peers.PEERS, snakemake.input.peer_models):
+        model = peers.load_peer(kind, io.read_json(path))
+        matched[kind] = peers.peer_prediction(kind, model, matched_inputs, matched_surrogate)
     fits = {summary["model"]: summary for summary in map(io.read_json, snakemake.input.peers_summary)}
     comparison = peers.comparison_table(predictions["measured"], models, predictions["in_support"].astype(bool),
                                         ~result.calibration, read_checked(snakemake.input.matched)[p.matched_measured],

@@ -390,3 +390,17 @@ def test_appending_production_reruns_neither_the_surrogate_nor_the_doe_check(run
     assert {"validate_inputs", "residuals", "tune_residual", "prediction_intervals"} <= planned
     assert not {"surrogate_fit", "surrogate_cv", "standardize", "demo_data"} & planned, planned
     assert "output: results/data/doe.csv" not in dry and "output: results/data/production.csv" in dry
+
+
+def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir):
+    from hybridtwin import Predictor
+
+    predictor = Predictor.load(run_dir / "results/models")
+    settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:200]
+    fast = predictor.predict(settings, with_peers=False)
+    assert fast["pred_gp_discrepancy"].isna().all() and fast["pred_stack"].isna().all()
+    assert not fast["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"]).any()
+    assert fast["pred_recommended"].notna().all() and fast["pred_lower"].notna().all()
+    full = predictor.predict(settings)
+    same = ~full["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"])
+    assert (fast.loc[same, "pred_recommended"] == full.loc[same, "pred_recommended"]).all()

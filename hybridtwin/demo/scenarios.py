@@ -356,8 +356,7 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
     residuals = pd.DataFrame({"measured": measured, "pred_surrogate": mean, "residual_approx": r, "in_support": inside})
     peer_settings = peer_settings or {"gp_n_hyper": 500, "gp_n_fit": 2000, "cokriging_n_high": 500}
     for kind in peers.PEERS:
-        fit = peers.fit_peer(kind, doe, production, residuals, production.iloc[:0], np.empty(0), inputs, target,
-                             peer_settings, seed)
+        fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed)
         frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
     calibrated = intervals.calibrate(frame, production[inputs], doe_range, gate.threshold_, level, 4, 20, seed,

@@ -66,10 +66,11 @@ def benchmark_of(rule_name, suffix=""):
 def final_outputs():
     tables = ["table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
               "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension"]
+    figures_of_causes = [f"cause_{rank}" for rank in range(1, config["diagnosis"]["n_figures"] + 1)]
     figures = ["figure2_residual_check", "figure3_error_distributions", "support_distances", "surrogate_parity"]
     return (
         [f"{TABLES}/{name}.csv" for name in tables]
-        + [f"{FIGURES}/{name}.png" for name in figures]
+        + [f"{FIGURES}/{name}.png" for name in figures + figures_of_causes]
         + [f"{RESULTS}/predictions/production.csv", f"{RESULTS}/synthetic/doe_corrected.csv",
            f"{RESULTS}/synthetic/support_samples.csv", f"{RESULTS}/diagnosis.md",
            f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json",

@@ -67,12 +67,10 @@ rule support_gate:
     input:
         doe=CHECKED["doe"],
         production=CHECKED["production"],
-        matched=CHECKED["matched"],
         standardization=rules.standardize.output.model,
     output:
         model=f"{MODELS}/support_gate.json",
         production=f"{RESULTS}/support/production_support.csv",
-        matched=f"{RESULTS}/support/matched_support.csv",
         figure=report(f"{FIGURES}/support_distances.png", caption="../report/support_distances.rst",
                       category="1. Data and support"),
     params:
@@ -89,6 +87,27 @@ rule support_gate:
         benchmark_of("support_gate")
     script:
         "../../scripts/support_gate.py"
+
+
+rule matched_support:
+    # apart from the gate, so a new matched case reruns the matched check, not the models
+    input:
+        matched=CHECKED["matched"],
+        gate=rules.support_gate.output.model,
+    output:
+        support=f"{RESULTS}/support/matched_support.csv",
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        paths=config["data"],
+    conda:
+        "../envs/hybridtwin.yaml"
+    log:
+        log_of("matched_support"),
+    benchmark:
+        benchmark_of("matched_support")
+    script:
+        "../../scripts/matched_support.py"
 
 
 rule table1:

@@ -28,7 +28,7 @@ rule predict_production:
 rule matched_check:
     input:
         matched=CHECKED["matched"],
-        support=rules.support_gate.output.matched,
+        support=rules.matched_support.output.support,
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",
         predictions=rules.predict_production.output.predictions,

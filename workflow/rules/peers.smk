@@ -5,13 +5,10 @@ rule peer:
     input:
         doe=CHECKED["doe"],
         production=CHECKED["production"],
-        matched=CHECKED["matched"],
         residuals=rules.residuals.output.residuals,
-        surrogate=rules.surrogate_fit.output.model,
     output:
         model=f"{MODELS}/peer_{{peer}}.json",
         predictions=f"{RESULTS}/peers/{{peer}}_production.csv",
-        matched=f"{RESULTS}/peers/{{peer}}_matched.csv",
         summary=f"{RESULTS}/peers/{{peer}}.json",
     wildcard_constraints:
         peer="gp_discrepancy|cokriging",

@@ -11,7 +11,8 @@ rule prediction_intervals:
         matched=CHECKED["matched"],
         matched_models=rules.model_extension.output.matched_predictions,
         matched_cases=rules.matched_check.output.cases,
-        peers_matched=expand(f"{RESULTS}/peers/{{peer}}_matched.csv", peer=PEERS),
+        peer_models=expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS),
+        surrogate=rules.surrogate_fit.output.model,
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
