@@ -23,7 +23,7 @@ from sklearn.utils.validation import check_is_fitted
 from .gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
 from .surrogate import GPRSurrogate
 
-BATCH_ROWS = 5000  # a GP's cross-covariance with its training rows is built per batch of rows to predict
+BATCH_ROWS = 500  # rows predicted at a time: a GP's cross-covariance with its training rows fits in cache
 
 
 def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
