@@ -378,3 +378,19 @@ def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[s
     table["recommended"] = [model == "recommended" or fitted.recommended.get(name) == model
                             for name, model in zip(table["region"], table["model"])]
     return Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
+
+
+def figure_data(calibrated: Calibration, measured, distance, level: float, seed: int, n_shown: int = 4000) -> dict:
+    """What the intervals figure shows: a seeded sample of held-out rows, the recommended model's errors
+    there, and per region the interval's median half-width and the recommended model's coverage."""
+    test = np.flatnonzero(~calibrated.calibration)
+    shown = np.sort(np.random.default_rng(seed).choice(test, min(len(test), n_shown), replace=False))
+    picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
+    error = np.asarray(measured, float) - picked["pred_recommended"].to_numpy(float)
+    half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
+    table = calibrated.table
+    recommended = table[(table["model"] == "recommended") & (table["calibration"] == "by_region")]
+    return {"distance": np.asarray(distance, float)[shown], "error": error[shown], "region": calibrated.region[shown],
+            "half_width": {name: float(np.nanmedian(half[calibrated.region == name]))
+                           for name in calibrated.intervals.regions},
+            "coverage": dict(zip(recommended["region"], recommended["coverage"]))}

@@ -203,6 +203,11 @@ def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) ->
     return surrogate + model.predict(X) if kind == "gp_discrepancy" else model.predict(X)
 
 
+def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray) -> dict[str, np.ndarray]:
+    """Every peer's prediction at ``X`` (the matched cases, say), given the surrogate there."""
+    return {kind: peer_prediction(kind, model, X, surrogate) for kind, model in models.items()}
+
+
 def load_peer(kind: str, data: dict):
     return {"gp_discrepancy": GPDiscrepancy, "cokriging": CoKriging}[kind].from_dict(data)
 

@@ -135,8 +135,8 @@ class Predictor:
                "hybrid_gated": np.where(inside, surrogate + filtered, surrogate), "hybrid": surrogate + filtered,
                "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
                "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
-        out.update({kind: peers.peer_prediction(kind, model, X, surrogate) if with_peers else np.full(len(X), np.nan)
-                    for kind, model in self.peers.items()})
+        out.update(peers.predictions_at(self.peers, X, surrogate) if with_peers
+                   else {kind: np.full(len(X), np.nan) for kind in self.peers})
         return out
 
     def predict(self, frame: pd.DataFrame, level: float | None = None, with_peers: bool = True) -> pd.DataFrame:
