@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -18,15 +19,50 @@ import pandas as pd
 FLOAT_FORMAT = "%.8g"
 
 
+# the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
+# workflow is gone (killed) must not rename its outputs over those of a later run
+OWNER_ENVIRONMENT = "HYBRIDTWIN_WORKFLOW_PID"
+
+
+class OrphanedJob(RuntimeError):
+    """The workflow run that started this job is gone; its outputs are not written."""
+
+
+def process_alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, killed but not yet reaped, does not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return True  # no /proc (macOS): the signal check is all there is
+
+
+def check_owner() -> None:
+    owner = os.environ.get(OWNER_ENVIRONMENT)
+    host = os.environ.get(OWNER_ENVIRONMENT + "_HOST")
+    if host and host != socket.gethostname():
+        return  # a cluster job on another machine: the run's process id means nothing here
+    if owner and not process_alive(int(owner)):
+        raise OrphanedJob(f"the workflow run (process {owner}) that started this job is gone: its outputs are "
+                          "not written, so they cannot overwrite those of a later run")
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike):
-    """Yield a temporary path in the target's folder; rename it to ``path`` on success."""
+    """Yield a temporary path in the target's folder; rename it to ``path`` on success (and only while the
+    workflow run that started the job still runs)."""
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
     os.close(handle)
     try:
         yield Path(temporary)
+        check_owner()
         os.replace(temporary, target)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)

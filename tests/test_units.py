@@ -1,5 +1,6 @@
 """Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
 import json
+import os
 import logging
 import math
 import threading
@@ -566,3 +567,32 @@ def test_a_study_on_new_data_starts_from_the_earlier_studys_best_trials(tmp_path
     cold = residual.tune(enriched[:-1], np.append(y, rng.random(9)), n_trials=2, n_folds=3, seed=1,
                          storage=str(tmp_path / "other.log"), space=space, warm_start=3)
     assert cold.trials[0].params != best[0].params  # nothing earlier in its storage: a cold start
+
+
+def test_a_job_whose_workflow_is_gone_writes_nothing(tmp_path, monkeypatch):
+    import subprocess
+    import sys
+
+    from hybridtwin import io
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # reaped: its pid no longer runs
+    target = tmp_path / "best_params.json"
+    target.write_text("the later run's\n")
+    monkeypatch.setenv(io.OWNER_ENVIRONMENT, str(gone.pid))
+    with pytest.raises(io.OrphanedJob, match="cannot overwrite"):
+        io.write_json({"params": 1}, target)
+    assert target.read_text() == "the later run's\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["best_params.json"]  # no temporary file left either
+    monkeypatch.setenv(io.OWNER_ENVIRONMENT, str(os.getpid()))  # a running workflow: written
+    io.write_json({"params": 1}, target)
+    assert "params" in target.read_text()
+
+
+def test_a_cluster_job_on_another_machine_is_not_taken_for_an_orphan(tmp_path, monkeypatch):
+    from hybridtwin import io
+
+    monkeypatch.setenv(io.OWNER_ENVIRONMENT, "999999999")  # no such process here
+    monkeypatch.setenv(io.OWNER_ENVIRONMENT + "_HOST", "another-node")
+    io.write_json({"params": 1}, tmp_path / "best.json")
+    assert (tmp_path / "best.json").exists()

@@ -210,6 +210,48 @@ def test_killed_tuning_resumes_and_keeps_finished_trials(tmp_path):
     assert after[: len(finished)] == finished, "finished trials must be kept as they were"
 
 
+def _group_alive(group: int) -> bool:
+    try:
+        os.killpg(group, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_a_killed_runs_orphan_never_overwrites_the_rerun(tmp_path):
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config["tuning"]["n_trials"] = 8
+    config["tuning"]["search_space"] = {"n_estimators": {"low": 300, "high": 600, "type": "int"},
+                                        "max_depth": {"low": 6, "high": 10, "type": "int"}}
+    config_path = tmp_path / "config.yaml"
+    config_path.write_text(yaml.safe_dump(config))
+    snakemake(tmp_path, "results/residuals/production_residuals.csv", config=config_path)
+    journal = tmp_path / "results/optuna/journal.log"
+    first = snakemake(tmp_path, "results/tuning/best_params.json", config=config_path,
+                      start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 240
+    while time.time() < deadline and (not journal.exists() or len(_complete_trials(journal)) < 2):
+        time.sleep(0.5)
+    first.send_signal(signal.SIGKILL)  # Snakemake alone: its tuning job is left running
+    first.wait()
+    assert _group_alive(first.pid), "no orphan: the job died with the workflow (then there is nothing to guard)"
+    os.killpg(first.pid, signal.SIGSTOP)  # hold the orphan back until the rerun has finished
+    try:
+        snakemake(tmp_path, "--unlock", config=config_path)
+        snakemake(tmp_path, "results/tuning/best_params.json", config=config_path)
+        outputs = [tmp_path / "results/tuning" / name for name in ("best_params.json", "trials.csv")]
+        written = {path: (path.read_bytes(), path.stat().st_mtime_ns) for path in outputs}
+        os.killpg(first.pid, signal.SIGCONT)
+        deadline = time.time() + 300
+        while time.time() < deadline and _group_alive(first.pid):  # the orphan's time passes
+            time.sleep(0.5)
+        assert not _group_alive(first.pid), "the orphaned job still runs"
+        assert {path: (path.read_bytes(), path.stat().st_mtime_ns) for path in outputs} == written
+    finally:
+        if _group_alive(first.pid):
+            os.killpg(first.pid, signal.SIGKILL)
+
+
 def test_two_tuning_workers_lose_no_trials(tmp_path):
     script = (
         "import sys, numpy as np\n"

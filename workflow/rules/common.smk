@@ -1,6 +1,13 @@
 # Shared settings of the rules: column names from the config, file layout.
 import hashlib
+import os
+import socket
 from pathlib import Path
+
+# the jobs' outputs are renamed into place only while this run lives (hybridtwin.io.check_owner):
+# a job orphaned by a killed run cannot overwrite the outputs of a later one
+os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID", str(os.getpid()))  # a job's own re-parse keeps the run's
+os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID_HOST", socket.gethostname())
 
 
 def sorted_keys(value):
