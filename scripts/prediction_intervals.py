@@ -25,7 +25,8 @@ def main(snakemake):
 
     picked = intervals.recommended_prediction(result.intervals, result.honest, result.region, level)
     models = {**result.honest, "recommended": picked["pred_recommended"].to_numpy(float)}
-    matched_inputs = read_checked(snakemake.input.matched)[p.inputs]
+    matched_cases = read_checked(snakemake.input.matched)
+    matched_inputs = matched_cases[p.inputs]
     peer_models = {kind: peers.load_peer(kind, io.read_json(path)) for kind, path in zip(peers.PEERS,
                                                                                        snakemake.input.peer_models)}
     matched = {**read_checked(snakemake.input.matched_models).to_dict("series"),
@@ -34,7 +35,7 @@ def main(snakemake):
                    io.read_json(snakemake.input.surrogate)).predict(matched_inputs))}
     fits = {summary["model"]: summary for summary in map(io.read_json, snakemake.input.peers_summary)}
     comparison = peers.comparison_table(predictions["measured"], models, predictions["in_support"].astype(bool),
-                                        ~result.calibration, read_checked(snakemake.input.matched)[p.matched_measured],
+                                        ~result.calibration, matched_cases[p.matched_measured],
                                         matched, fits, truth, noise)
     io.write_csv(comparison, snakemake.output.comparison)
     shown = intervals.figure_data(result, predictions["measured"], predictions["knn_distance"], level, p.seed)

@@ -184,20 +184,27 @@ def _complete_trials(journal: Path) -> list[dict]:
     return trials
 
 
-def test_killed_tuning_resumes_and_keeps_finished_trials(tmp_path):
+def _tuning_under_way(workdir, n_trials: int):
+    """A run started (in its own process group) on a slow tuning setup, once 2 trials have finished:
+    returns the Snakemake process, the config it runs with and the study's journal."""
     config = yaml.safe_load(open(TEST_CONFIG))
-    config["tuning"]["n_trials"] = 10
+    config["tuning"]["n_trials"] = n_trials
     config["tuning"]["search_space"] = {"n_estimators": {"low": 300, "high": 600, "type": "int"},
                                         "max_depth": {"low": 6, "high": 10, "type": "int"}}
-    config_path = tmp_path / "config.yaml"
+    config_path = workdir / "config.yaml"
     config_path.write_text(yaml.safe_dump(config))
-    snakemake(tmp_path, "results/residuals/production_residuals.csv", config=config_path)
-    journal = tmp_path / "results/optuna/journal.log"
-    process = snakemake(tmp_path, "results/tuning/best_params.json", config=config_path,
+    snakemake(workdir, "results/residuals/production_residuals.csv", config=config_path)
+    journal = workdir / "results/optuna/journal.log"
+    process = snakemake(workdir, "results/tuning/best_params.json", config=config_path,
                         start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 240
     while time.time() < deadline and (not journal.exists() or len(_complete_trials(journal)) < 2):
-        time.sleep(1)
+        time.sleep(0.5)
+    return process, config_path, journal
+
+
+def test_killed_tuning_resumes_and_keeps_finished_trials(tmp_path):
+    process, config_path, journal = _tuning_under_way(tmp_path, 10)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     finished = _complete_trials(journal)
@@ -219,19 +226,7 @@ def _group_alive(group: int) -> bool:
 
 
 def test_a_killed_runs_orphan_never_overwrites_the_rerun(tmp_path):
-    config = yaml.safe_load(open(TEST_CONFIG))
-    config["tuning"]["n_trials"] = 8
-    config["tuning"]["search_space"] = {"n_estimators": {"low": 300, "high": 600, "type": "int"},
-                                        "max_depth": {"low": 6, "high": 10, "type": "int"}}
-    config_path = tmp_path / "config.yaml"
-    config_path.write_text(yaml.safe_dump(config))
-    snakemake(tmp_path, "results/residuals/production_residuals.csv", config=config_path)
-    journal = tmp_path / "results/optuna/journal.log"
-    first = snakemake(tmp_path, "results/tuning/best_params.json", config=config_path,
-                      start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 240
-    while time.time() < deadline and (not journal.exists() or len(_complete_trials(journal)) < 2):
-        time.sleep(0.5)
+    first, config_path, _ = _tuning_under_way(tmp_path, 8)
     first.send_signal(signal.SIGKILL)  # Snakemake alone: its tuning job is left running
     first.wait()
     assert _group_alive(first.pid), "no orphan: the job died with the workflow (then there is nothing to guard)"
