@@ -196,11 +196,10 @@ def value_folds(candidate: Candidate, settings: Settings) -> list[tuple[np.ndarr
     campaign's other rows in training, and a many-step form (a monotone trend) would
     be scored on recalling those levels. Held-out quantile bins of the candidate's own
     values, spread over the folds, score a form on values it has not seen: what it
-    will meet out of the support. Group ids (their levels must be seen) and products
-    (three parameters cannot recall levels) keep shuffled folds.
+    will meet out of the support. Group ids (their levels must be seen) keep shuffled folds.
     """
     n = len(candidate.values)
-    if candidate.kind in ("group", "interaction"):
+    if candidate.kind == "group":
         return kfolds(n, settings.folds, settings.seed)
     edges = np.quantile(candidate.values, np.linspace(0, 1, BINS_PER_FOLD * settings.folds + 1)[1:-1])
     bins = np.unique(np.searchsorted(edges, candidate.values, side="right"), return_inverse=True)[1]
@@ -212,18 +211,36 @@ def value_folds(candidate: Candidate, settings: Settings) -> list[tuple[np.ndarr
     return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(settings.folds)]
 
 
+def fold_sets(candidate: Candidate, settings: Settings) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """The fold sets a candidate is scored on: one per axis along which it must predict unseen values.
+
+    A product of two columns is scored along each of its columns, and counts by the worse of
+    the two, as a single column is scored along its own: on shuffled folds it would recall
+    what its columns' settings carry and out-score the single column that causes it.
+    """
+    if candidate.kind != "interaction":
+        return [value_folds(candidate, settings)]
+    return [value_folds(Candidate(column, "input", candidate.values[:, j], (column,)), settings)
+            for j, column in enumerate(candidate.columns)]
+
+
+def held_out_worst(name: str, candidate: Candidate, y, settings: Settings) -> np.ndarray:
+    """Held-out predictions of a form on the candidate's fold set where they err most."""
+    predictions = [held_out(name, candidate.values, y, splits) for splits in fold_sets(candidate, settings)]
+    return max(predictions, key=lambda oof: float(np.mean((y - oof) ** 2)))
+
+
 def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.0) -> Fit:
     """The candidate's form with the lowest penalized held-out error (BIC-style penalty).
 
     The other forms tried are kept in ``alternatives`` (best first).
     """
-    splits = value_folds(candidate, settings)
     n = len(y)
     null_mse = float(np.mean(y**2))
     fits = []
     for name in candidate.form_names:
         try:
-            oof = held_out(name, candidate.values, y, splits)
+            oof = held_out_worst(name, candidate, y, settings)
             full = fit_form(name, candidate.values, y)
         except (np.linalg.LinAlgError, ValueError) as error:
             log.debug("form %s on %s failed: %s", name, candidate.name, error)
@@ -301,7 +318,7 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
 MAX_CLOSED_FORM_PARAMS = 3  # linear, quadratic, step, sigmoid, product
 
 
-def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) -> Fit:
+def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y, settings: Settings) -> Fit:
     """Among other single-column candidates' fits that predict what the best one predicts, up to
     ``min_effect`` (std of the difference), take the one with the fewest parameters.
 
@@ -315,25 +332,51 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable) ->
     Elapsed time counts half a parameter more than it has: time causes nothing by
     itself, it stands for whatever changes with it (tool wear in strokes, a warming
     die), so a logged quantity that predicts the same is named instead.
+
+    Simplicity decides only where the data cannot: going up from the simplest such column,
+    one that predicts significantly better held out (:func:`better_held_out`) is taken
+    instead. A drift that goes on while the line stands idle is time's, not the stroke
+    counter's, however alike the two are over the parts.
     """
     def equivalent(alt: Fit) -> bool:
         return acceptable(alt) and predicts_the_same(alt, best, min_effect)
 
-    def simplest(fit: Fit) -> float:
+    def simplest(fit: Fit) -> Fit | None:
         """A column counts as simple as its simplest form that predicts what the best one predicts."""
-        return min((_complexity(alt) for alt in fit.alternatives or [fit] if equivalent(alt)), default=np.inf)
+        return min((alt for alt in fit.alternatives or [fit] if equivalent(alt)), key=_complexity, default=None)
 
-    own = min(_complexity(best), simplest(best))
+    own = min(_complexity(best), _complexity(simplest(best)) if simplest(best) else np.inf)
     rivals = []
     for fit in pool:
         if fit.candidate.kind == "interaction" or fit.candidate.name == best.candidate.name:
             continue
-        complexity = simplest(fit)
-        if complexity < own:
-            # the column's own choice of form (held-out score), among its forms that predict the same
+        if fit.candidate.kind == "group" and best.candidate.kind != "group":
+            continue  # an id is named only where no other column accounts for it (:func:`physical_cause`)
+        counted = simplest(fit)
+        if counted is not None and _complexity(counted) < own:
+            # named with the column's own choice of form (held-out score) among its forms that predict the same
             form = next(alt for alt in fit.alternatives or [fit] if equivalent(alt))
-            rivals.append((complexity, form.score, fit.candidate.name, form))
-    return min(rivals, key=lambda rival: rival[:3])[3] if rivals else best
+            rivals.append((_complexity(counted), form.score, fit.candidate.name, form, counted))
+    if not rivals:
+        return best
+    ladder = sorted(rivals, key=lambda rival: rival[:3]) + [(own, best.score, best.candidate.name, best, best)]
+    choice = ladder[0]
+    for rival in ladder[1:]:
+        # measured against the form the choice was counted by: a column needs more parameters than
+        # that to match a simpler-counted one, it is not simpler
+        if better_held_out(rival[3], choice[4], y, settings):
+            choice = rival
+    return choice[3]
+
+
+def better_held_out(fit: Fit, reference: Fit, y, settings: Settings) -> bool:
+    """Whether ``fit`` predicts significantly better held out than ``reference`` (paired block test at
+    ``settings.alpha``), where both were scored on held-out stretches of their own values; ids and
+    products are left to the rules on proxies and pairs."""
+    comparable = {"input", "log", "time"}
+    if fit.candidate.kind not in comparable or reference.candidate.kind not in comparable:
+        return False
+    return block_p_value(y, fit.oof, settings.n_blocks, reference=reference.oof) < settings.alpha
 
 
 PROXY_SHARE = 0.5  # an id stands for a quantity that accounts for at least this share of its level differences
@@ -442,23 +485,35 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         return left - left.mean(), fit_all([c for c in candidates if c.name not in chosen], left - left.mean(),
                                            settings, min_effect)
 
-    while len(selected) < settings.max_causes:
-        pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}
-                and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
-        if not pool:
-            break
-        best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect, acceptable)
-        named, share = physical_cause(best, pool, remaining, acceptable)
-        if named is not best:
-            proxies[best.candidate.name] = (named.candidate.name, share)
-            best = prefer_simpler(named, pool, min_effect, acceptable)
-        if not is_significant(best, n_tests, settings, min_effect):
-            break
-        selected.append(best)
-        remaining, conditional = refit()
+    def forward() -> None:
+        nonlocal remaining, conditional
+        while len(selected) < settings.max_causes:
+            pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}
+                    and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
+            if not pool:
+                break
+            best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect,
+                                  acceptable, remaining, settings)
+            named, share = physical_cause(best, pool, remaining, acceptable)
+            if named is not best:
+                proxies[best.candidate.name] = (named.candidate.name, share)
+                best = prefer_simpler(named, pool, min_effect, acceptable, remaining, settings)
+            if not is_significant(best, n_tests, settings, min_effect):
+                break
+            selected.append(best)
+            remaining, conditional = refit()
 
-    if _single_columns_for_pairs(selected, {c.name: c for c in candidates}, y, settings, min_effect, acceptable):
+    forward()
+    by_name = {c.name: c for c in candidates}
+    if _refine(selected, by_name, y, settings, min_effect, acceptable):
+        # the causes after the first were chosen given a first cause that has changed: choose them again
+        del selected[1:]
         remaining, conditional = refit()
+        forward()
+        _refine(selected, by_name, y, settings, min_effect, acceptable)
+        remaining, conditional = refit()
+        named = {fit.candidate.name for fit in selected}
+        proxies = {key: value for key, value in proxies.items() if value[0] in named}
 
     aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
     table = _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
@@ -477,34 +532,58 @@ def joint_share(fits: list[Fit], y, settings: Settings) -> float:
     return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
 
 
-def _single_columns_for_pairs(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings,
-                              min_effect: float, acceptable) -> bool:
-    """Replace a chosen product a*b by a or b alone where, given the other chosen causes, the single column
-    explains as much (within :data:`SHARE_TOLERANCE`, held out); returns whether anything was replaced.
+def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float,
+            acceptable) -> bool:
+    """Choose each chosen cause's form again given all the others; returns whether anything changed.
 
-    Chosen one at a time, a product can take up part of a cause that is chosen after it (a
-    die that warms more under higher cushion forces and a wear drift along the same
-    shifts); with every cause in, the single column says what the product said.
+    Chosen one at a time, a cause is fitted with the causes after it still in the
+    residual: a wear drift bends a temperature's saturation into a parabola, and a
+    product a*b takes up part of a cause chosen after it (a die that warms more under
+    higher cushion forces and a wear drift along the same shifts). With every cause in,
+    the form is chosen again, and a product gives way to a or b alone where the single
+    column explains as much (within :data:`SHARE_TOLERANCE`, held out).
     """
-    replaced = False
+    changed = False
+    for _ in range(REFINE_PASSES):
+        if not _refine_pass(selected, by_name, y, settings, min_effect, acceptable):
+            break
+        changed = True
+    return changed
+
+
+REFINE_PASSES = 3  # a changed cause changes what the others are fitted to: go round again, a few times at most
+
+
+def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float,
+                 acceptable) -> bool:
+    changed = False
     for j, fit in enumerate(list(selected)):
+        # the partial residual of cause j: y less the other causes' terms of the joint fit
+        models, means = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
+        rest = y - sum(m.predict(s.candidate.values) - c
+                       for k, (m, s, c) in enumerate(zip(models, selected, means)) if k != j)
+        rest = rest - rest.mean()
         if fit.candidate.kind != "interaction":
+            again = best_fit(fit.candidate, rest, settings, min_effect)
+            if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
+                chosen = {s.candidate.name for s in selected}
+                pool = [again] + [best_fit(c, rest, settings, min_effect) for c in by_name.values()
+                                  if c.kind in ("input", "log") and c.name not in chosen]
+                again = prefer_simpler(again, pool, min_effect, acceptable, rest, settings)
+            if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and acceptable(again):
+                selected[j] = again
+                changed = True
             continue
-        others = selected[:j] + selected[j + 1:]
-        rest = y.copy()
-        if others:
-            models, means = forms.backfit([o.candidate.values for o in others], [o.form.name for o in others], y)
-            rest = y - sum(m.predict(o.candidate.values) - c for m, o, c in zip(models, others, means))
         current = joint_share(selected, y, settings)
-        singles = [best_fit(by_name[column], rest - rest.mean(), settings, min_effect)
+        singles = [best_fit(by_name[column], rest, settings, min_effect)
                    for column in fit.candidate.columns if column in by_name]
         singles = [single for single in singles if acceptable(single)]
         scored = [(joint_share(selected[:j] + [single] + selected[j + 1:], y, settings), single) for single in singles]
         scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
         if scored:
             selected[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
-            replaced = True
-    return replaced
+            changed = True
+    return changed
 
 
 def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):

@@ -42,14 +42,16 @@ def block_means(values, n_blocks: int) -> np.ndarray:
     return np.array([block.mean() for block in np.array_split(values, min(n_blocks, max(2, len(values) // 20)))])
 
 
-def block_p_value(y, prediction, n_blocks: int) -> float:
-    """One-sided p-value that ``prediction`` beats predicting zero, from means over blocks of consecutive rows.
+def block_p_value(y, prediction, n_blocks: int, reference=None) -> float:
+    """One-sided p-value that ``prediction`` beats ``reference`` (default: predicting zero), from means over
+    blocks of consecutive rows.
 
     Gains of neighbouring parts are correlated (drift, campaigns); block means are nearly
     independent, so a t-test over them does not overstate the evidence as one over rows would.
     """
     y, prediction = np.asarray(y, float), np.asarray(prediction, float)
-    means = block_means(y**2 - (y - prediction) ** 2, n_blocks)
+    reference = np.zeros_like(y) if reference is None else np.asarray(reference, float)
+    means = block_means((y - reference) ** 2 - (y - prediction) ** 2, n_blocks)
     se = means.std(ddof=1) / np.sqrt(len(means))
     if se == 0:
         return 0.0 if means.mean() > 0 else 1.0

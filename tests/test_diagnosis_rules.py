@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin import diagnosis
+from hybridtwin import diagnosis, forms
 from hybridtwin.diagnosis import Candidate, Settings, best_fit
 from hybridtwin.metrics import block_p_value
 
@@ -99,9 +99,26 @@ def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
         ("temp*other", "interaction", np.column_stack([temp, rng.normal(0, 1, n)]), ("temp", "other")),
     ]}
     # the pair as the best-scoring candidate: the single column is simpler and predicts the same
-    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), 2.0, lambda fit: True)
+    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), 2.0, lambda fit: True, y, SETTINGS)
     assert chosen.candidate.name == "temp"
     assert chosen.form.name == fits["temp"].form.name == "sigmoid"
+
+
+@pytest.mark.parametrize("drift_along, expected", [("hours", "time"), ("strokes", "strokes")])
+def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(drift_along, expected):
+    # strokes run with the hours except over idle stops, where only the hours go on
+    rng = np.random.default_rng(5)
+    n = 4000
+    hours = np.cumsum(rng.exponential(0.02, n)) + 30.0 * (np.arange(n) >= 1500) + 30.0 * (np.arange(n) >= 3000)
+    strokes = 100_000 + np.arange(n, dtype=float)
+    drift = {"hours": hours, "strokes": strokes}[drift_along]
+    y = 2.0 * (drift - drift.mean()) / drift.std() + rng.normal(0, 1.0, n)
+    y -= y.mean()
+    fits = [best_fit(Candidate(name, kind, values, (name,)), y, SETTINGS, 0.5) for name, kind, values in [
+        ("time", "time", hours), ("strokes", "log", strokes)]]
+    best = min(fits, key=lambda fit: fit.score)
+    chosen = diagnosis.prefer_simpler(best, fits, 1.0, lambda fit: True, y, SETTINGS)
+    assert chosen.candidate.name == expected
 
 
 def test_no_cause_on_pure_noise():
@@ -125,6 +142,26 @@ def test_a_sigmoid_that_saturates_beyond_the_data_gives_way_to_a_slope():
     assert fit.form.name in ("step", "sigmoid")  # a change the data show stays a change
 
 
+def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
+    # a saturation in temperature and a wear drift along strokes that runs with temperature: fitted
+    # alone, the temperature's term bends into a parabola; with the drift in, it is the sigmoid again
+    rng = np.random.default_rng(8)
+    n = 4000
+    strokes = np.arange(n, dtype=float)
+    temp = 30 + 20 * strokes / n + rng.normal(0, 4, n)
+    y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 4.0 * strokes / n + rng.normal(0, 0.5, n)
+    y -= y.mean()
+    by_name = {"temp": Candidate("temp", "input", temp, ("temp",)),
+               "strokes": Candidate("strokes", "log", strokes, ("strokes",))}
+    alone = best_fit(by_name["temp"], y, SETTINGS, 0.5)
+    quadratic = next(alt for alt in alone.alternatives if alt.form.name == "quadratic")
+    models, means = forms.backfit([temp], ["quadratic"], y)
+    left = y - models[0].predict(temp) + means[0]
+    selected = [quadratic, best_fit(by_name["strokes"], left - left.mean(), SETTINGS, 0.5)]
+    assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
+    assert [(fit.candidate.name, fit.form.name) for fit in selected][0] == ("temp", "sigmoid")
+
+
 def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
     rng = np.random.default_rng(7)
     n = 3000
@@ -134,9 +171,9 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
     pair = Candidate("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
     by_name = {"temp": Candidate("temp", "input", temp, ("temp",)), "other": Candidate("other", "input", other, ("other",))}
     selected = [best_fit(pair, y, SETTINGS)]
-    assert diagnosis._single_columns_for_pairs(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
+    assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
     assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"
     # a real interaction stays
     y2 = 0.2 * (temp - 35) * (other - 0.5) + rng.normal(0, 0.3, n)
     selected = [best_fit(pair, y2 - y2.mean(), SETTINGS)]
-    assert not diagnosis._single_columns_for_pairs(selected, by_name, y2 - y2.mean(), SETTINGS, 0.5, lambda fit: True)
+    assert not diagnosis._refine(selected, by_name, y2 - y2.mean(), SETTINGS, 0.5, lambda fit: True)
