@@ -380,6 +380,9 @@ def better_held_out(fit: Fit, reference: Fit, y, settings: Settings) -> bool:
 
 
 PROXY_SHARE = 0.5  # an id stands for a quantity that accounts for at least this share of its level differences
+# a product of two columns must account for more: among dozens of pairs with three parameters each,
+# one takes up half of a few dozen coil offsets by chance more often than not
+PROXY_SHARE_PAIR = 0.75
 
 
 def between_level_ss(labels, values) -> float:
@@ -407,7 +410,8 @@ def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, floa
     temperature, a setting and a material at once out-scores each of them. Both kinds are
     put on the same footing by asking what the id's level differences are: when a
     significant candidate that is not an id accounts for most of them
-    (:data:`PROXY_SHARE`), that candidate is named, the best-scoring such one. The id
+    (:data:`PROXY_SHARE`; :data:`PROXY_SHARE_PAIR` for a product), that candidate is named, the
+    best-scoring such one. The id
     stays a candidate for the next step, where it is chosen only if its remainder,
     given the named cause, is significant. Returns the cause and the share it accounts for.
     """
@@ -415,7 +419,8 @@ def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, floa
         return best, 0.0
     rivals = [(fit, proxy_share(best, fit, y)) for fit in pool
               if fit.candidate.kind != "group" and acceptable(fit)]
-    rivals = [(fit, share) for fit, share in rivals if share >= PROXY_SHARE]
+    rivals = [(fit, share) for fit, share in rivals
+              if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE)]
     if not rivals:
         return best, 0.0
     return min(rivals, key=lambda rival: (rival[0].score, rival[0].candidate.name))

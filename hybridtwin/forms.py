@@ -310,6 +310,7 @@ def backfit(values: list, form_names: list[str], y, passes: int = 20) -> tuple[l
 EDGE_QUANTILES = (0.1, 0.9)
 EDGE_ALPHA = 0.01  # one-sided block test that extrapolating beats holding constant on the edges
 MIN_EDGE_ROWS = 50
+MIN_EDGE_BLOCKS = 10  # the edges' blocks are lengthened down to this many while their means stay correlated
 
 
 def edge_split(x):
@@ -344,7 +345,7 @@ def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
     outer = x[~inner]
     extrapolated = model.predict(outer)
     held = model.predict(np.clip(outer, low, high) if x.ndim > 1 else np.clip(outer, low[0], high[0]))
-    return block_p_value(y[~inner] - held, extrapolated - held, n_blocks) < EDGE_ALPHA
+    return block_p_value(y[~inner] - held, extrapolated - held, n_blocks, min_blocks=MIN_EDGE_BLOCKS) < EDGE_ALPHA
 
 
 def set_trusted_range(form: Form, x, y) -> Form:

@@ -42,16 +42,38 @@ def block_means(values, n_blocks: int) -> np.ndarray:
     return np.array([block.mean() for block in np.array_split(values, min(n_blocks, max(2, len(values) // 20)))])
 
 
-def block_p_value(y, prediction, n_blocks: int, reference=None) -> float:
+def batch_means(values, n_blocks: int, min_blocks: int) -> np.ndarray:
+    """Block means, with blocks doubled in length while neighbouring means stay correlated.
+
+    The batch-means method of simulation output analysis (Law and Carson, 1979): parts of
+    one coil or one setting campaign share their error, so block means shorter than a
+    coil are not independent. Blocks grow until the lag-1 correlation of their means is
+    below its 2-standard-error bound (2/sqrt(m)), but never below ``min_blocks`` blocks.
+    """
+    means = block_means(values, n_blocks)
+    while len(means) // 2 >= min_blocks and lag1_correlation(means) >= 2.0 / np.sqrt(len(means)):
+        means = block_means(values, len(means) // 2)
+    return means
+
+
+def lag1_correlation(values) -> float:
+    values = np.asarray(values, float) - np.mean(values)
+    denominator = float(np.sum(values**2))
+    return float(np.sum(values[:-1] * values[1:]) / denominator) if denominator > 0 else 0.0
+
+
+def block_p_value(y, prediction, n_blocks: int, reference=None, min_blocks: int | None = None) -> float:
     """One-sided p-value that ``prediction`` beats ``reference`` (default: predicting zero), from means over
     blocks of consecutive rows.
 
     Gains of neighbouring parts are correlated (drift, campaigns); block means are nearly
     independent, so a t-test over them does not overstate the evidence as one over rows would.
+    With ``min_blocks``, blocks are lengthened until their means are uncorrelated (:func:`batch_means`).
     """
     y, prediction = np.asarray(y, float), np.asarray(prediction, float)
     reference = np.zeros_like(y) if reference is None else np.asarray(reference, float)
-    means = block_means((y - reference) ** 2 - (y - prediction) ** 2, n_blocks)
+    gains = (y - reference) ** 2 - (y - prediction) ** 2
+    means = block_means(gains, n_blocks) if min_blocks is None else batch_means(gains, n_blocks, min_blocks)
     se = means.std(ddof=1) / np.sqrt(len(means))
     if se == 0:
         return 0.0 if means.mean() > 0 else 1.0

@@ -5,7 +5,7 @@ import pytest
 
 from hybridtwin import diagnosis, forms
 from hybridtwin.diagnosis import Candidate, Settings, best_fit
-from hybridtwin.metrics import block_p_value
+from hybridtwin.metrics import batch_means, block_p_value
 
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
@@ -22,6 +22,43 @@ def test_block_test_counts_blocks_not_rows():
     # a t-test over the 40 rows would call this highly significant
     assert block_p_value(y, np.ones(40), n_blocks=2) == 0.0
     assert block_p_value(y, np.zeros(40), n_blocks=2) == 1.0
+
+
+def test_batch_means_lengthen_blocks_while_their_means_stay_correlated():
+    values = np.r_[np.ones(200), -np.ones(200)]
+    # 40 blocks: 20 of +1, 20 of -1 (lag-1 correlation 0.95); halved to 20, 10, then 5 blocks of 80 rows:
+    # [1, 1, 0, -1, -1], lag-1 correlation (1 + 0 + 0 + 1) / 4 = 0.5 below 2 / sqrt(5)
+    np.testing.assert_allclose(batch_means(values, 40, min_blocks=5), [1, 1, 0, -1, -1])
+    assert len(batch_means(values, 40, min_blocks=10)) == 10  # never fewer than asked
+    alternating = np.repeat(np.tile([1.0, -1.0], 20), 20)  # neighbouring block means anti-correlated
+    assert len(batch_means(alternating, 40, min_blocks=5)) == 40
+
+
+def _term(name: str, kind: str, term) -> diagnosis.Fit:
+    """A fit whose term is ``term`` itself."""
+    term = np.asarray(term, float)
+    return diagnosis.Fit(Candidate(name, kind, term, tuple(name.split("*"))), diagnosis.Identity(), term,
+                         1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
+
+
+def test_an_id_is_handed_to_a_column_by_the_share_of_its_level_differences():
+    y = np.array([1.0, 1.0, -1.0, -1.0])
+    coil = diagnosis.Fit(Candidate("coil", "group", np.array(list("aabb")), ("coil",)), diagnosis.Identity(), y,
+                         1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
+    # between-coil sums of squares: 4 before, 4 * 0.4**2 = 0.64 once a term of 0.6 * y is taken out
+    lube = _term("lube", "log", 0.6 * y)
+    assert diagnosis.proxy_share(coil, lube, y) == pytest.approx(0.84)
+    named, share = diagnosis.physical_cause(coil, [coil, lube], y, lambda fit: True)
+    assert named is lube and share == pytest.approx(0.84)
+    # a product of two columns needs more than half: one of dozens takes that up by chance
+    pair = _term("rm*cushion", "interaction", 0.5 * y)  # share 1 - 0.5**2 = 0.75
+    weak_pair = _term("rm*cushion", "interaction", 0.45 * y)  # share 0.6975
+    weak_lube = _term("lube", "log", 0.45 * y)
+    assert diagnosis.physical_cause(coil, [coil, pair], y, lambda fit: True)[0] is pair
+    assert diagnosis.physical_cause(coil, [coil, weak_pair], y, lambda fit: True) == (coil, 0.0)
+    assert diagnosis.physical_cause(coil, [coil, weak_lube], y, lambda fit: True)[0] is weak_lube
+    assert diagnosis.physical_cause(coil, [coil, _term("lube", "log", 0.25 * y)], y,  # share 0.4375
+                                    lambda fit: True) == (coil, 0.0)
 
 
 def test_elapsed_time_ranks_behind_a_logged_quantity_that_predicts_the_same():

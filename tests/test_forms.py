@@ -136,6 +136,24 @@ def test_a_continuing_trend_is_trusted_as_far_again_as_the_data_span():
     assert form.predict([x.max() + 5 * span]) == pytest.approx(form.predict([x.max() + span]))
 
 
+def _coils(seed: int, slope: float):
+    """40 coils of 150 parts; a per-coil quantity x and per-coil offsets (plus ``slope`` * x)."""
+    rng = np.random.default_rng(seed)
+    x = np.repeat(rng.uniform(0, 1, 40), 150)
+    return x, slope * x + np.repeat(rng.normal(0, 1, 40), 150) + rng.normal(0, 0.2, len(x))
+
+
+def test_a_slope_that_a_few_coils_at_the_edges_make_is_not_extrapolated():
+    # draw 24: the coils beyond the inner stretch happen to line up with the slope; 50 blocks of
+    # their parts (a few blocks per coil) would call that a continuing trend (p < 0.01)
+    x, y = _coils(24, slope=0.0)
+    assert not forms.extrapolates("linear", x, y)
+    # a trend that carries on: beyond the inner quantiles it must stand out from the offsets of
+    # the few coils out there (here up to 3 mm against their 1 mm sd)
+    x, y = _coils(24, slope=30.0)
+    assert forms.extrapolates("linear", x, y)
+
+
 def test_a_pair_is_held_per_column():
     rng = np.random.default_rng(3)
     ab = rng.uniform(0, 1, (3000, 2))
