@@ -34,17 +34,17 @@ def test_batch_means_lengthen_blocks_while_their_means_stay_correlated():
     assert len(batch_means(alternating, 40, min_blocks=5)) == 40
 
 
-def _term(name: str, kind: str, term) -> diagnosis.Fit:
-    """A fit whose term is ``term`` itself."""
+def _term(name: str, kind: str, term, values=None) -> diagnosis.Fit:
+    """A fit whose term is ``term`` itself (on the candidate's ``values``, by default the term)."""
     term = np.asarray(term, float)
-    return diagnosis.Fit(Candidate(name, kind, term, tuple(name.split("*"))), diagnosis.Identity(), term,
+    values = term if values is None else values
+    return diagnosis.Fit(Candidate(name, kind, values, tuple(name.split("*"))), diagnosis.Identity(), term,
                          1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
 
 
 def test_an_id_is_handed_to_a_column_by_the_share_of_its_level_differences():
     y = np.array([1.0, 1.0, -1.0, -1.0])
-    coil = diagnosis.Fit(Candidate("coil", "group", np.array(list("aabb")), ("coil",)), diagnosis.Identity(), y,
-                         1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
+    coil = _term("coil", "group", y, values=np.array(list("aabb")))
     # between-coil sums of squares: 4 before, 4 * 0.4**2 = 0.64 once a term of 0.6 * y is taken out
     lube = _term("lube", "log", 0.6 * y)
     assert diagnosis.proxy_share(coil, lube, y) == pytest.approx(0.84)
