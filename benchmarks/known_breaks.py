@@ -4,18 +4,22 @@ Applies one break at a time to a copy of the tree and runs the fast tests (no wo
 
     python benchmarks/known_breaks.py
 """
-import os, shutil, subprocess, sys, tempfile
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 BREAKS = [
  ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
  ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
  ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
- ("hybridtwin/validation.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
+ ("hybridtwin/crossval.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
  ("hybridtwin/metrics.py", "np.array_split(values, min(n_blocks, max(2, len(values) // 20)))", "np.array_split(values, len(values))"),
  ("hybridtwin/diagnosis.py", "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits", "    return fits"),
  ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
- ("hybridtwin/extension.py", "return self.offset_ + sum(self.terms(frame).values(), np.zeros(len(frame)))", "return sum(self.terms(frame).values(), np.zeros(len(frame)))"),
+ ("hybridtwin/extension.py", "return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))", "return sum(self.contributions(frame).values(), np.zeros(len(frame)))"),
  ("hybridtwin/report.py", 'direction = "more" if offset > 0 else "less"', 'direction = "less" if offset > 0 else "more"'),
  ("hybridtwin/hybrid.py", '"pred_hybrid_gated": gated(surrogate, filtered, inside)', '"pred_hybrid_gated": surrogate + filtered'),
 ]

@@ -517,11 +517,6 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     return {role: frames[role] for role in roles}
 
 
-def read_checked(path) -> pd.DataFrame:
-    """Read a checked copy written by the workflow's validation step."""
-    return pd.read_csv(path, keep_default_na=False, na_values=[""])
-
-
 def check_support(production_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict,
                   threshold: float) -> None:
     """Stop when no production row is in support."""

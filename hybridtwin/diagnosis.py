@@ -15,6 +15,7 @@ which is also in the residual.
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import logging
 from dataclasses import dataclass, field
@@ -24,20 +25,67 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 from . import forms
+from .causes import Cause, Term, elapsed_hours, time_origin
+from .crossval import folds as kfolds
 from .forms import fit_form
 from .metrics import block_means, block_p_value
-from .validation import folds as kfolds
 
 log = logging.getLogger(__name__)
+
+# ---------------------------------------------------------------- the selection policy, in one place
+# (the statistical settings a user may change -- folds, alpha, the number of blocks of the block
+# t-test, the surrogate margin -- are in :class:`Settings`, from the config's ``diagnosis:``)
+
+# numeric candidates are scored on held-out quantile bins of their own values, this many per fold:
+# enough bins to spread each fold over the range, few enough that a bin holds whole campaigns
+BINS_PER_FOLD = 4
+# a simpler cause may explain this much less of the residual variance and still count as the same
+SHARE_TOLERANCE = 0.05
+# forms with at most this many parameters are closed forms (linear, quadratic, step, sigmoid, product);
+# more (monotone trend, group offsets) take up the surrogate's own error too
+MAX_CLOSED_FORM_PARAMS = 3
+# elapsed time and a product of two columns count this many parameters more than they have: both stand
+# for something else (what changes with time; one of the two columns)
+PROXY_PENALTY = 0.5
+# an id stands for a quantity that accounts for at least this share of its level differences
+PROXY_SHARE = 0.5
+# a product of two columns must account for more: among dozens of pairs with three parameters each,
+# one took up half of a few dozen coil offsets by chance (3 of 13 coil_itself plants of the families bank)
+PROXY_SHARE_PAIR = 0.75
+# confounding: a chosen cause is tested both ways against the strongest rivals that explain at least this
+# share of what it explains on its own, at most this many of them
+RIVAL_SHARE = 0.5
+MAX_RIVALS = 8
+# a changed cause changes what the others are fitted to: go round again, a few times at most
+REFINE_PASSES = 3
 
 
 @dataclass(frozen=True)
 class Candidate:
-    name: str
-    kind: str  # "input", "log", "time", "group", "interaction"
+    """A cause under test, with its values on the diagnosed rows."""
+
+    cause: Cause
     values: np.ndarray
-    columns: tuple[str, ...]
-    origin: str | None = None  # time candidates: the timestamp elapsed hours count from
+
+    @classmethod
+    def new(cls, name: str, kind: str, values, columns: tuple[str, ...], origin: str | None = None) -> "Candidate":
+        return cls(Cause(name, kind, tuple(columns), origin), values)
+
+    @property
+    def name(self) -> str:
+        return self.cause.name
+
+    @property
+    def kind(self) -> str:
+        return self.cause.kind
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return self.cause.columns
+
+    @property
+    def origin(self) -> str | None:
+        return self.cause.origin
 
     @property
     def form_names(self) -> tuple[str, ...]:
@@ -90,6 +138,10 @@ class Fit:
     def explained_share(self) -> float:
         return float(max(0.0, 1.0 - self.cv_mse / self.null_mse)) if self.null_mse > 0 else 0.0
 
+    @property
+    def term(self) -> Term:
+        return Term(self.candidate.cause, self.form.name)
+
 
 @dataclass
 class Diagnosis:
@@ -108,41 +160,13 @@ class Diagnosis:
     explained_by: dict[str, str] = field(default_factory=dict)
     proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
 
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """The chosen causes with their forms: what the extension fits."""
+        return tuple(fit.term for fit in self.selected)
+
 
 # ---------------------------------------------------------------- candidates
-
-def _timestamps(values: pd.Series) -> pd.Series | None:
-    """Text as timestamps (ISO first, then day-first formats), or None if they are not timestamps."""
-    text = values.astype(str)
-    stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
-    if stamps.isna().mean() > 0.01:
-        stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
-    return None if stamps.isna().mean() > 0.01 else stamps
-
-
-def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
-    """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
-    stamps = _timestamps(values)
-    if stamps is None:
-        return None
-    start = stamps.min() if origin is None else pd.Timestamp(origin)
-    return ((stamps - start).dt.total_seconds() / 3600.0).to_numpy(float)
-
-
-def cause_values(frame: pd.DataFrame, kind: str, columns, origin: str | None = None) -> np.ndarray:
-    """The values a cause's form is fitted on: numbers, elapsed hours, level labels or a column pair."""
-    if kind == "interaction":
-        return np.column_stack([frame[c].to_numpy(float) for c in columns])
-    if kind == "time":
-        return elapsed_hours(frame[columns[0]], origin)
-    if kind == "group":
-        return frame[columns[0]].astype(str).to_numpy()
-    return frame[columns[0]].to_numpy(float)
-
-
-def time_origin(values: pd.Series) -> str:
-    return str(_timestamps(values).min())
-
 
 def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -> tuple[list[Candidate], dict[str, str]]:
     """Candidate causes from every usable column, and the reasons others were skipped."""
@@ -159,20 +183,20 @@ def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -
                 skipped[column] = "missing or infinite values"
                 continue
             kind = "input" if column in inputs else "log"
-            candidates.append(Candidate(column, kind, values.to_numpy(float), (column,)))
+            candidates.append(Candidate.new(column, kind, values.to_numpy(float), (column,)))
             continue
         hours = elapsed_hours(values)
         if hours is not None:
-            candidates.append(Candidate(column, "time", hours, (column,), time_origin(values)))
+            candidates.append(Candidate.new(column, "time", hours, (column,), time_origin(values)))
         elif values.nunique() <= settings.max_levels:
-            candidates.append(Candidate(column, "group", values.astype(str).to_numpy(), (column,)))
+            candidates.append(Candidate.new(column, "group", values.astype(str).to_numpy(), (column,)))
         else:
             skipped[column] = f"text with {values.nunique()} distinct values (more than {settings.max_levels})"
     if settings.interactions:
         numeric_inputs = [c for c in candidates if c.kind == "input"]
         for a, b in itertools.combinations(numeric_inputs, 2):
-            candidates.append(Candidate(f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]),
-                                        (a.name, b.name)))
+            candidates.append(Candidate.new(f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]),
+                                            (a.name, b.name)))
     return candidates, skipped
 
 
@@ -183,9 +207,6 @@ def held_out(name: str, x, y, splits) -> np.ndarray:
     for train, test in splits:
         oof[test] = fit_form(name, x[train], y[train]).predict(x[test])
     return oof
-
-
-BINS_PER_FOLD = 4
 
 
 def value_folds(candidate: Candidate, settings: Settings) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -220,7 +241,7 @@ def fold_sets(candidate: Candidate, settings: Settings) -> list[list[tuple[np.nd
     """
     if candidate.kind != "interaction":
         return [value_folds(candidate, settings)]
-    return [value_folds(Candidate(column, "input", candidate.values[:, j], (column,)), settings)
+    return [value_folds(Candidate.new(column, "input", candidate.values[:, j], (column,)), settings)
             for j, column in enumerate(candidate.columns)]
 
 
@@ -300,9 +321,6 @@ def predicts_the_same(fit: Fit, reference: Fit, min_effect: float) -> bool:
             and float(np.std(difference)) < min_effect)
 
 
-SHARE_TOLERANCE = 0.05  # the least margin by which a simpler cause may explain less of the residual variance
-
-
 def share_tolerance(fit: Fit, min_effect: float) -> float:
     """How much less of the residual variance a simpler cause may explain and still count as the same.
 
@@ -313,9 +331,6 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
     if fit.form.n_params <= MAX_CLOSED_FORM_PARAMS:
         return SHARE_TOLERANCE
     return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
-
-
-MAX_CLOSED_FORM_PARAMS = 3  # linear, quadratic, step, sigmoid, product
 
 
 def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y, settings: Settings) -> Fit:
@@ -379,12 +394,6 @@ def better_held_out(fit: Fit, reference: Fit, y, settings: Settings) -> bool:
     return block_p_value(y, fit.oof, settings.n_blocks, reference=reference.oof) < settings.alpha
 
 
-PROXY_SHARE = 0.5  # an id stands for a quantity that accounts for at least this share of its level differences
-# a product of two columns must account for more: among dozens of pairs with three parameters each,
-# one took up half of a few dozen coil offsets by chance (3 of 13 coil_itself plants of the families bank)
-PROXY_SHARE_PAIR = 0.75
-
-
 def between_level_ss(labels, values) -> float:
     """Count-weighted sum of squares of the level means of ``values`` around their overall mean."""
     codes = np.unique(np.asarray(labels), return_inverse=True)[1]
@@ -429,7 +438,7 @@ def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, floa
 def _complexity(fit: Fit) -> float:
     """Parameters; elapsed time ranks behind a logged quantity of as many parameters, and a product of
     two columns behind one column (both stand for more than a single quantity)."""
-    return fit.form.n_params + (0.5 if fit.candidate.kind in ("time", "interaction") else 0.0)
+    return fit.form.n_params + (PROXY_PENALTY if fit.candidate.kind in ("time", "interaction") else 0.0)
 
 
 def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
@@ -483,8 +492,8 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     def refit() -> tuple[np.ndarray, dict[str, Fit]]:
         """Joint fit of the chosen causes; what they leave, and every other candidate's fit to it."""
         models, _ = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
-        for fit, model in zip(selected, models):
-            fit.form = model
+        # the chosen forms refitted jointly; new records, so that the marginal fits keep their own forms
+        selected[:] = [dataclasses.replace(fit, form=model) for fit, model in zip(selected, models)]
         left = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
         chosen = {s.candidate.name for s in selected}
         return left - left.mean(), fit_all([c for c in candidates if c.name not in chosen], left - left.mean(),
@@ -556,9 +565,6 @@ def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Set
     return changed
 
 
-REFINE_PASSES = 3  # a changed cause changes what the others are fitted to: go round again, a few times at most
-
-
 def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float,
                  acceptable) -> bool:
     changed = False
@@ -603,8 +609,8 @@ def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effec
         # rivals built on A's own column are variants of A's form, not confounders
         rivals = [fit for name, fit in marginal.items() if name not in chosen and name not in explained_by
                   and not set(fit.candidate.columns) & set(a.columns)
-                  and fit.explained_share >= 0.5 * a_share and a_share > 0]
-        for rival in sorted(rivals, key=lambda f: -f.explained_share)[:8]:
+                  and fit.explained_share >= RIVAL_SHARE * a_share and a_share > 0]
+        for rival in sorted(rivals, key=lambda f: -f.explained_share)[:MAX_RIVALS]:
             b = rival.candidate
             b_after_a = best_fit(b, _without(a, cause.form.name, y), settings, min_effect)
             a_after_b = best_fit(a, _without(b, rival.form.name, y), settings, min_effect)
@@ -689,71 +695,3 @@ def summary_dict(result: Diagnosis) -> dict:
         "aliases": result.aliases, "explained_by": result.explained_by, "skipped": result.skipped,
         "proxies": {name: {"cause": cause, "share": share} for name, (cause, share) in result.proxies.items()},
     }
-
-
-def partial_residual(result: Diagnosis, y: np.ndarray, index: int) -> np.ndarray:
-    """The offset-free residual less every chosen term but the ``index``-th."""
-    others = [f for j, f in enumerate(result.selected) if j != index]
-    return y - sum((f.form.predict(f.candidate.values) for f in others), np.zeros_like(y))
-
-
-def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20, n_boot: int = 30) -> dict:
-    """Data for a cause's figure: binned residual, the fitted form on a grid and a bootstrap 95% band.
-
-    A chosen cause is shown against its partial residual (the other chosen terms
-    removed); any other candidate against the residual left by all chosen terms.
-    """
-    candidate = result.candidates[name]
-    chosen = [f.candidate.name for f in result.selected]
-    if name in chosen:
-        index = chosen.index(name)
-        y, form = partial_residual(result, result.y, index), result.selected[index].form
-    else:
-        y = partial_residual(result, result.y, -1)
-        form_name = str(result.table.set_index("cause").loc[name, "form"])
-        form = fit_form(form_name, candidate.values, y)
-    profile = {"name": name, "kind": candidate.kind, "form": form.name, "description": form.describe(name),
-               "selected": name in chosen}
-    if candidate.kind == "group":
-        frame = pd.DataFrame({"level": candidate.values, "y": y})
-        stats_ = frame.groupby("level")["y"].agg(["mean", "count", "std"]).sort_index()
-        profile.update(levels=stats_.index.tolist(), mean=stats_["mean"].to_numpy(),
-                       se=(stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
-                       fitted=form.predict(np.asarray(stats_.index)))
-        return profile
-    x = candidate.values if candidate.kind != "interaction" else form.predict(candidate.values)
-    if candidate.kind == "interaction":
-        form = Identity()
-    edges = np.unique(np.percentile(x, np.linspace(0, 100, n_bins + 1)))
-    which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
-    binned = pd.DataFrame({"bin": which, "x": x, "y": y}).groupby("bin").agg(
-        center=("x", "mean"), mean=("y", "mean"), std=("y", "std"), count=("y", "size"))
-    binned["se"] = binned["std"].fillna(0) / np.sqrt(binned["count"])
-    grid = np.linspace(x.min(), x.max(), 200)
-    rng = np.random.default_rng(seed)
-    curves = []
-    for _ in range(n_boot if not isinstance(form, Identity) else 0):
-        pick = rng.choice(len(y), min(len(y), 4000), replace=True)
-        curves.append(fit_form(form.name, x[pick], y[pick]).predict(grid))
-    curve = form.predict(grid)
-    low, high = (np.percentile(curves, [2.5, 97.5], axis=0) if curves else (curve, curve))
-    profile.update(binned=binned, grid=grid, curve=curve, band_low=low, band_high=high,
-                   xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [mm]")
-    if candidate.kind == "time":
-        profile["xlabel"] = f"{name}: hours since {candidate.origin}"
-    return profile
-
-
-class Identity(forms.Form):
-    """The fitted term against itself, for plotting interactions."""
-
-    name = "identity"
-
-    def predict(self, x):
-        return np.asarray(x, float)
-
-
-def surrogate_latent_std(predictive_std, noise_std: float) -> float:
-    """Mean predictive std of the surrogate's mean (the learned noise taken out): its own uncertainty."""
-    variance = np.asarray(predictive_std, float) ** 2 - float(noise_std) ** 2
-    return float(np.mean(np.sqrt(np.clip(variance, 0.0, None))))

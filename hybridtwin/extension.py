@@ -7,52 +7,46 @@ The extended hybrid adds an XGBoost model of what the extension leaves over.
 from __future__ import annotations
 
 import logging
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 
 from . import forms
-from .diagnosis import cause_values
-from .validation import splice_out_of_fold
+from .causes import Term
+from .crossval import splice_out_of_fold
+from .files import in_support
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class Cause:
-    name: str
-    kind: str
-    columns: tuple[str, ...]
-    form: str
-    origin: str | None = None
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "Cause":
-        return cls(data["name"], data["kind"], tuple(data["columns"]), data["form"], data.get("origin"))
 
 
 class DiscrepancyExtension(RegressorMixin, BaseEstimator):
     """Offset plus the diagnosed terms; ``fit(frame, residual)`` / ``predict(frame)`` give the residual correction.
 
-    ``frame`` is a table of production columns (it must hold the causes' columns;
-    at prediction a missing column contributes zero, the term's mean).
+    ``terms`` are :class:`~hybridtwin.causes.Term` (or their dicts). ``frame`` is a table of
+    production columns (it must hold the causes' columns; at prediction a missing column
+    contributes zero, the term's mean).
     """
 
-    def __init__(self, causes: tuple = ()):
-        self.causes = causes
+    def __init__(self, terms: tuple = ()):
+        self.terms = terms
 
-    def _causes(self) -> list[Cause]:
-        return [c if isinstance(c, Cause) else Cause.from_dict(c) for c in self.causes]
+    def _terms(self) -> list[Term]:
+        return [t if isinstance(t, Term) else Term.from_dict(t) for t in self.terms]
+
+    @property
+    def columns(self) -> set[str]:
+        """The production columns its terms read."""
+        return {column for term in self._terms() for column in term.cause.columns}
 
     def fit(self, frame: pd.DataFrame, residual):
         residual = np.asarray(residual, float)
         self.offset_ = float(residual.mean())
-        causes = self._causes()
-        values = [cause_values(frame, c.kind, c.columns, c.origin) for c in causes]
+        terms = self._terms()
+        values = [t.cause.values(frame) for t in terms]
         target = residual - self.offset_
-        self.forms_, self.means_ = forms.backfit(values, [c.form for c in causes], target)
+        self.forms_, self.means_ = forms.backfit(values, [t.form for t in terms], target)
         for j, (form, x) in enumerate(zip(self.forms_, values)):
             # how far each term is trusted beyond its in-support values: judged on its partial residual
             others = sum((f.predict(v) - m for k, (f, v, m) in enumerate(zip(self.forms_, values, self.means_))
@@ -60,38 +54,33 @@ class DiscrepancyExtension(RegressorMixin, BaseEstimator):
             forms.set_trusted_range(form, x, target - others)
         return self
 
-    def terms(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:
+    def contributions(self, frame: pd.DataFrame) -> dict[str, np.ndarray]:
         """Each cause's centred contribution; zero where the frame lacks the cause's column."""
         out = {}
-        for cause, form, mean in zip(self._causes(), self.forms_, self.means_):
+        for term, form, mean in zip(self._terms(), self.forms_, self.means_):
+            cause = term.cause
             if not set(cause.columns) <= set(frame.columns):
                 log.warning("no column %s here: the %s term is set to its mean (0)", cause.columns, cause.name)
                 out[cause.name] = np.zeros(len(frame))
                 continue
-            out[cause.name] = form.predict(cause_values(frame, cause.kind, cause.columns, cause.origin)) - mean
+            out[cause.name] = form.predict(cause.values(frame)) - mean
         return out
 
     def predict(self, frame: pd.DataFrame) -> np.ndarray:
-        return self.offset_ + sum(self.terms(frame).values(), np.zeros(len(frame)))
+        return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))
 
     def to_dict(self) -> dict:
         return {"format": "hybridtwin.DiscrepancyExtension/1", "offset": self.offset_,
-                "causes": [asdict(c) for c in self._causes()],
+                "causes": [t.to_dict() for t in self._terms()],
                 "forms": [f.to_dict() for f in self.forms_], "means": self.means_}
 
     @classmethod
     def from_dict(cls, data: dict) -> "DiscrepancyExtension":
-        model = cls(causes=tuple(Cause.from_dict(c) for c in data["causes"]))
+        model = cls(terms=tuple(Term.from_dict(c) for c in data["causes"]))
         model.offset_ = float(data["offset"])
         model.forms_ = [forms.form_from_dict(f) for f in data["forms"]]
         model.means_ = [float(m) for m in data["means"]]
         return model
-
-
-def causes_from_diagnosis(selected) -> tuple[Cause, ...]:
-    """The diagnosis' chosen causes as extension terms."""
-    return tuple(Cause(f.candidate.name, f.candidate.kind, f.candidate.columns, f.form.name, f.candidate.origin)
-                 for f in selected)
 
 
 @dataclass
@@ -102,18 +91,18 @@ class Models:
     remainder: object  # XGBoost model of residual - extension
 
 
-def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, causes, make_xgb) -> Models:
-    extension = DiscrepancyExtension(causes).fit(frame, residual)
+def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb) -> Models:
+    extension = DiscrepancyExtension(terms).fit(frame, residual)
     remainder = make_xgb().fit(X, residual - extension.predict(frame))
     return Models(extension, remainder)
 
 
-def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, causes, make_xgb, splits):
+def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, splits):
     """Out-of-fold residual corrections of the extension and the extended hybrid."""
     extended = np.empty(len(residual))
     extended_hybrid = np.empty(len(residual))
     for train, test in splits:
-        models = fit_models(frame.iloc[train], X[train], residual[train], causes, make_xgb)
+        models = fit_models(frame.iloc[train], X[train], residual[train], terms, make_xgb)
         extended[test] = models.extension.predict(frame.iloc[test])
         extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
     return extended, extended_hybrid
@@ -131,7 +120,7 @@ class Evaluation:
 
 
 def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataFrame, matched: pd.DataFrame,
-             matched_cases: pd.DataFrame, inputs, causes, make_xgb, splits) -> Evaluation:
+             matched_cases: pd.DataFrame, inputs, terms, make_xgb, splits) -> Evaluation:
     """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
 
     ``residuals``: residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the hybrid's
@@ -140,14 +129,14 @@ def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataF
     """
     if len(matched_cases) != len(matched):
         raise ValueError(f"{len(matched_cases)} matched-case predictions for {len(matched)} matched cases")
-    rows = np.flatnonzero(residuals["in_support"].astype(bool).to_numpy())
+    rows = np.flatnonzero(in_support(residuals))
     X = production[list(inputs)].to_numpy(float)
     r = residuals["residual_approx"].to_numpy(float)
     surrogate = residuals["pred_surrogate"].to_numpy(float)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
+    models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb)
     extended = surrogate + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
-    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits)
+    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits)
     scored = {"surrogate": surrogate, "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
               "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
               "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid)}

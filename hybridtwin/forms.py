@@ -11,6 +11,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.isotonic import IsotonicRegression
 
+from .files import json_safe
+
 FAMILIES = {"linear": "linear", "quadratic": "polynomial", "sigmoid": "saturating", "step": "step",
             "monotone": "monotone trend", "group": "group offsets", "product": "interaction",
             "additive": "additive"}
@@ -40,20 +42,10 @@ class Form:
         raise NotImplementedError
 
     def to_dict(self) -> dict:
-        return {"form": self.name, **{k: _plain(v) for k, v in vars(self).items()}}
+        return {"form": self.name, **{k: json_safe(v) for k, v in vars(self).items()}}
 
     def describe(self, column: str, unit: str = "mm") -> str:
         raise NotImplementedError
-
-
-def _plain(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    return value
 
 
 class Linear(Form):

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from crepes import ConformalRegressor
 
+from .files import in_support
 from .metrics import rmse
 
 IN_SUPPORT = "in_support"
@@ -42,7 +43,7 @@ def out_of_support_region(index: int) -> str:
 
 def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
     """Per model, the predictions no row was trained on (columns of results/predictions/production.csv)."""
-    inside = predictions["in_support"].astype(bool).to_numpy()
+    inside = in_support(predictions)
     surrogate = predictions["pred_surrogate"].to_numpy(float)
     honest = {"surrogate": surrogate,
               "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
@@ -366,7 +367,7 @@ def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[s
               threshold: float, level: float, n_bins: int, n_blocks: int, seed: int, truth=None) -> Calibration:
     """Regions, intervals and recommended models from results/predictions/production.csv, and their test table."""
     beyond = (outside_range(inputs, doe_range) != 0).any(axis=1).to_numpy()
-    inside = predictions["in_support"].astype(bool).to_numpy()
+    inside = in_support(predictions)
     distance = predictions["knn_distance"].to_numpy(float)
     calibration = calibration_rows(len(predictions), n_blocks)
     edges = distance_edges(distance[calibration & ~(inside & ~beyond)], n_bins)

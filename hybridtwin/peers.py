@@ -20,7 +20,14 @@ import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from .gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
+from .files import in_support
+from .gate import (
+    DoEStandardizer,
+    input_matrix,
+    input_names,
+    remember_inputs,
+    restore_inputs,
+)
 from .surrogate import GPRSurrogate
 
 BATCH_ROWS = 500  # rows predicted at a time: a GP's cross-covariance with its training rows fits in cache
@@ -177,7 +184,7 @@ def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: 
     residuals rule's table).
     """
     inputs = list(inputs)
-    inside = np.flatnonzero(residuals["in_support"].astype(bool).to_numpy())
+    inside = np.flatnonzero(in_support(residuals))
     X_in = production.iloc[inside][inputs]
     start = time.perf_counter()
     if kind == "gp_discrepancy":

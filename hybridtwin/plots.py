@@ -1,4 +1,4 @@
-"""Figures. Each function returns a matplotlib Figure; io.save_figure writes it."""
+"""Figures. Each function returns a matplotlib Figure; files.save_figure writes it."""
 from __future__ import annotations
 
 import matplotlib

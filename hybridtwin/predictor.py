@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import data, intervals, io, peers, residual
+from . import data, files, intervals, peers, residual
 from .extension import DiscrepancyExtension
 from .gate import KNNSupportGate, input_names
 from .surrogate import GPRSurrogate
@@ -89,23 +89,23 @@ class Predictor:
         if not (folder / MANIFEST).exists():
             raise data.InputError(f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
                                   "results/models folder of a finished workflow run")
-        spec = io.read_json(folder / MANIFEST)
+        spec = files.read_json(folder / MANIFEST)
         inputs = list(spec["inputs"])
-        files = {key: folder / name for key, name in spec["files"].items()}
-        surrogate = GPRSurrogate.from_dict(io.read_json(files["surrogate"]))
-        gate = KNNSupportGate.from_dict(io.read_json(files["gate"]))
+        model_files = {key: folder / name for key, name in spec["files"].items()}
+        surrogate = GPRSurrogate.from_dict(files.read_json(model_files["surrogate"]))
+        gate = KNNSupportGate.from_dict(files.read_json(model_files["gate"]))
         for name, model in (("surrogate", surrogate), ("gate", gate)):
             if input_names(model) is not None and input_names(model) != inputs:
-                raise ValueError(f"{files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}")
+                raise ValueError(f"{model_files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}")
         return cls(inputs=inputs, target=spec["target"], unit=spec["unit"], csv=data.CsvFormat(**spec["csv"]),
                    doe_range={name: tuple(bounds) for name, bounds in spec["doe_range"].items()},
                    surrogate=surrogate, gate=gate,
-                   residual_filtered=_xgb(files["residual_filtered"], inputs),
-                   residual_unfiltered=_xgb(files["residual_unfiltered"], inputs),
-                   extension=DiscrepancyExtension.from_dict(io.read_json(files["extension"])),
-                   remainder=_xgb(files["remainder"], inputs),
+                   residual_filtered=_xgb(model_files["residual_filtered"], inputs),
+                   residual_unfiltered=_xgb(model_files["residual_unfiltered"], inputs),
+                   extension=DiscrepancyExtension.from_dict(files.read_json(model_files["extension"])),
+                   remainder=_xgb(model_files["remainder"], inputs),
                    intervals=intervals.RegionIntervals.from_dict(spec["intervals"]), level=float(spec["level"]),
-                   peers={kind: peers.load_peer(kind, io.read_json(files[kind])) for kind in peers.PEERS})
+                   peers={kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS})
 
     def _inputs(self, frame: pd.DataFrame) -> pd.DataFrame:
         missing = [name for name in self.inputs if name not in frame.columns]
@@ -124,7 +124,7 @@ class Predictor:
         surrogate, std = self.surrogate.predict(X, return_std=True)
         inside = self.gate.predict(X) if in_support is None else np.asarray(in_support, bool)
         filtered = self.residual_filtered.predict(X)
-        lacking = sorted({c for cause in self.extension._causes() for c in cause.columns} - set(frame.columns))
+        lacking = sorted(self.extension.columns - set(frame.columns))
         if lacking:
             log.warning("no column %s in the table: the extension (whose causes need it) gives no prediction",
                         ", ".join(lacking))
@@ -186,4 +186,4 @@ class Predictor:
 
     def write(self, answers: pd.DataFrame, path, fmt: data.CsvFormat | None = None) -> None:
         fmt = fmt or self.csv
-        io.write_csv(answers, path, sep=fmt.sep, decimal=fmt.decimal)
+        files.write_csv(answers, path, sep=fmt.sep, decimal=fmt.decimal)

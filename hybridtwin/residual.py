@@ -17,7 +17,7 @@ import optuna
 import pandas as pd
 import xgboost as xgb
 
-from .validation import cross_validate
+from .crossval import cross_validate
 
 log = logging.getLogger(__name__)
 
@@ -196,7 +196,7 @@ def save_model(model: xgb.XGBRegressor, path, inputs=None) -> None:
     ``inputs`` names the columns the model was fitted on, in order; the file
     carries them, so a table given later is matched by name.
     """
-    from .io import atomic_path
+    from .files import atomic_path
 
     if inputs is not None:
         model.get_booster().feature_names = [str(name) for name in inputs]

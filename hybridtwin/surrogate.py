@@ -12,7 +12,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 from sklearn.utils.validation import check_is_fitted
 
-from .gate import DoEStandardizer, restore_inputs, input_names, remember_inputs
+from .gate import DoEStandardizer, input_names, remember_inputs, restore_inputs
 
 
 class GPRSurrogate(RegressorMixin, BaseEstimator):
@@ -73,3 +73,9 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         model.n_features_in_ = X_train.shape[1]
         restore_inputs(model, data)
         return model
+
+
+def surrogate_latent_std(predictive_std, noise_std: float) -> float:
+    """Mean predictive std of the surrogate's mean (the learned noise taken out): its own uncertainty."""
+    variance = np.asarray(predictive_std, float) ** 2 - float(noise_std) ** 2
+    return float(np.mean(np.sqrt(np.clip(variance, 0.0, None))))

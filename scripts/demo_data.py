@@ -1,5 +1,5 @@
 """Write the demo plant's CSVs and its noise-free truth."""
-from hybridtwin import demo, io
+from hybridtwin import demo, files
 from hybridtwin.runner import run
 
 
@@ -8,9 +8,9 @@ def main(snakemake):
     frames = demo.generate(plant)
     for name, path in snakemake.output.items():
         if name == "spec":
-            io.write_json(demo.describe_plant(plant), path)
+            files.write_json(demo.describe_plant(plant), path)
         else:
-            io.write_csv(frames[name], path)
+            files.write_csv(frames[name], path)
 
 
 run(snakemake, main)

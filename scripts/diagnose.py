@@ -1,33 +1,34 @@
 """Diagnosis: rank candidate causes of the in-support approximate residuals; a figure per top cause."""
 import logging
 
-from hybridtwin import diagnosis, io, plots
-from hybridtwin.data import read_checked
+from hybridtwin import diagnosis, files, plots, profiles
+from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
+from hybridtwin.surrogate import surrogate_latent_std
 
 
 def main(snakemake):
     p = snakemake.params
     production = read_checked(snakemake.input.production)
     residuals = read_checked(snakemake.input.residuals)
-    inside = residuals["in_support"].astype(bool).to_numpy()
-    surrogate_std = diagnosis.surrogate_latent_std(residuals.loc[inside, "pred_surrogate_std"],
-                                                   io.read_json(snakemake.input.surrogate)["noise_std"])
+    inside = in_support(residuals)
+    surrogate_std = surrogate_latent_std(residuals.loc[inside, "pred_surrogate_std"],
+                                         files.read_json(snakemake.input.surrogate)["noise_std"])
     settings = diagnosis.Settings.from_config(p.settings, folds=p.folds, seed=p.seed, n_jobs=snakemake.threads)
     result = diagnosis.diagnose(production.loc[inside].drop(columns=[p.target]),
                                 residuals.loc[inside, "residual_approx"], p.inputs, [p.target], settings,
                                 surrogate_std=surrogate_std)
     logging.info("offset %.3f; chosen causes: %s", result.offset, [f.candidate.name for f in result.selected])
-    io.write_csv(result.table, snakemake.output.table)
+    files.write_csv(result.table, snakemake.output.table)
     # the ranking may use a sample of the in-support parts: the report says so
-    io.write_json({**diagnosis.summary_dict(result), "n_in_support": int(inside.sum())}, snakemake.output.summary)
+    files.write_json({**diagnosis.summary_dict(result), "n_in_support": int(inside.sum())}, snakemake.output.summary)
     for rank, path in enumerate(snakemake.output.figures, start=1):
         if rank > len(result.table):
-            io.save_figure(plots.placeholder(f"only {len(result.table)} candidate cause(s)"), path)
+            files.save_figure(plots.placeholder(f"only {len(result.table)} candidate cause(s)"), path)
             continue
         row = result.table.iloc[rank - 1]
-        profile = diagnosis.cause_profile(result, row["cause"], seed=p.seed)
-        io.save_figure(plots.cause_profile(profile, rank, bool(row["significant"])), path)
+        profile = profiles.cause_profile(result, row["cause"], seed=p.seed)
+        files.save_figure(plots.cause_profile(profile, rank, bool(row["significant"])), path)
 
 
 run(snakemake, main)

@@ -1,12 +1,12 @@
 """Step 8: Figure 3, error distributions of surrogate and hybrid, in support (out-of-fold) and on matched cases."""
-from hybridtwin import io, plots
-from hybridtwin.data import read_checked
+from hybridtwin import files, plots
+from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
 
 
 def main(snakemake):
     predictions = read_checked(snakemake.input.predictions)
-    inside = predictions[predictions["in_support"].astype(bool)]
+    inside = predictions[in_support(predictions)]
     cases = read_checked(snakemake.input.cases)
     groups = {
         f"production in support (n={len(inside):,}), hybrid out-of-fold": {
@@ -14,7 +14,7 @@ def main(snakemake):
             "hybrid": inside["measured"] - inside["pred_hybrid_oof"]},
         f"matched cases (n={len(cases)})": {"surrogate": cases["error_surrogate"], "hybrid": cases["error_hybrid"]},
     }
-    io.save_figure(plots.error_distributions(groups), snakemake.output.figure)
+    files.save_figure(plots.error_distributions(groups), snakemake.output.figure)
 
 
 run(snakemake, main)

@@ -1,8 +1,8 @@
 """An established peer of the hybrid (GP discrepancy or co-kriging), fitted on the DoE and the in-support parts."""
 import logging
 
-from hybridtwin import io, peers
-from hybridtwin.data import read_checked
+from hybridtwin import files, peers
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
 
 
@@ -12,9 +12,9 @@ def main(snakemake):
     fit = peers.fit_peer(kind, read_checked(snakemake.input.doe), read_checked(snakemake.input.production),
                          read_checked(snakemake.input.residuals), p.inputs, p.target, p.settings, p.seed)
     logging.info("%s: fitted on %d in-support parts in %.1f s", kind, fit.n_train, fit.fit_seconds)
-    io.write_json(fit.model.to_dict(), snakemake.output.model)
-    io.write_csv(fit.production, snakemake.output.predictions, float_format=None)
-    io.write_json({"model": kind, "fit_seconds": fit.fit_seconds, "n_train": fit.n_train}, snakemake.output.summary)
+    files.write_json(fit.model.to_dict(), snakemake.output.model)
+    files.write_csv(fit.production, snakemake.output.predictions, float_format=None)
+    files.write_json({"model": kind, "fit_seconds": fit.fit_seconds, "n_train": fit.n_train}, snakemake.output.summary)
 
 
 run(snakemake, main)

@@ -1,8 +1,8 @@
 """Predictions for every production row, in input order."""
-from hybridtwin import io, residual
-from hybridtwin.data import read_checked
-from hybridtwin.hybrid import production_predictions
+from hybridtwin import files, residual
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
+from hybridtwin.tables import production_predictions
 
 
 def main(snakemake):
@@ -13,7 +13,7 @@ def main(snakemake):
         filtered=residual.load_model(snakemake.input.filtered_model).predict(X),
         unfiltered=residual.load_model(snakemake.input.unfiltered_model).predict(X),
         filtered_oof=read_checked(snakemake.input.filtered_oof), unfiltered_oof=read_checked(snakemake.input.unfiltered_oof))
-    io.write_csv(table, snakemake.output.predictions)
+    files.write_csv(table, snakemake.output.predictions)
 
 
 run(snakemake, main)

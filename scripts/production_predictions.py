@@ -1,8 +1,8 @@
 """results/predictions/production.csv: the hybrid's predictions joined with the extension's and the peers', in input order."""
 import pandas as pd
 
-from hybridtwin import io
-from hybridtwin.data import read_checked
+from hybridtwin import files
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
 
 
@@ -12,7 +12,7 @@ def main(snakemake):
     lengths = {len(part) for part in parts}
     if len(lengths) != 1:
         raise RuntimeError(f"prediction tables of different lengths: {sorted(lengths)}")
-    io.write_csv(pd.concat(parts, axis=1), snakemake.output.predictions)
+    files.write_csv(pd.concat(parts, axis=1), snakemake.output.predictions)
 
 
 run(snakemake, main)

@@ -1,8 +1,8 @@
 """The next simulations: enrichment.n_points DoE points that bring the most production parts into the support."""
 import logging
 
-from hybridtwin import enrichment, io, plots
-from hybridtwin.data import read_checked
+from hybridtwin import enrichment, files, plots
+from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
 from hybridtwin.surrogate import GPRSurrogate
 
@@ -10,7 +10,7 @@ from hybridtwin.surrogate import GPRSurrogate
 def main(snakemake):
     p = snakemake.params
     doe, production = read_checked(snakemake.input.doe), read_checked(snakemake.input.production)
-    surrogate = GPRSurrogate.from_dict(io.read_json(snakemake.input.surrogate))
+    surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
     settings = enrichment.EnrichmentSettings(n_points=p.settings["n_points"], recency_weight=p.settings["recency_weight"],
                                              margin=p.settings["margin"], n_candidates=p.settings["n_candidates"],
                                              seed=p.seed)
@@ -21,11 +21,11 @@ def main(snakemake):
         logging.warning("every production part is already in the support: nothing to propose (empty table written)")
     elif len(table) < settings.n_points:
         logging.info("%d point(s) bring every part into the support; no more are proposed", len(table))
-    io.write_csv(table, snakemake.output.table)
-    io.save_figure(plots.enrichment_share(proposal.share_before, proposal.share_after,
+    files.write_csv(table, snakemake.output.table)
+    files.save_figure(plots.enrichment_share(proposal.share_before, proposal.share_after,
                                           proposal.share_after_fixed_threshold, p.k), snakemake.output.share)
-    inside = read_checked(snakemake.input.support)["in_support"].astype(bool).to_numpy()
-    io.save_figure(plots.enrichment_map(doe[p.inputs], production[p.inputs], inside, table[p.inputs], p.seed),
+    inside = in_support(read_checked(snakemake.input.support))
+    files.save_figure(plots.enrichment_map(doe[p.inputs], production[p.inputs], inside, table[p.inputs], p.seed),
                    snakemake.output.map)
 
 

@@ -5,10 +5,10 @@ training=unfiltered: every production row (Table 5's comparison).
 """
 import pandas as pd
 
-from hybridtwin import io, residual
-from hybridtwin.data import read_checked
+from hybridtwin import files, residual
+from hybridtwin.crossval import cross_validate, cv_table
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
-from hybridtwin.validation import cross_validate, cv_table
 
 
 def main(snakemake):
@@ -17,13 +17,13 @@ def main(snakemake):
     rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
     X = production.loc[rows, snakemake.params.inputs]
     y = residuals.loc[rows, "residual_approx"].to_numpy(float)
-    params = io.read_json(snakemake.input.best)["params"]
+    params = files.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
     # a fold split other than the tuning's, so the score is not the winning trial's own
     per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, residual.evaluation_seed(snakemake.params.seed))
-    io.write_csv(per_fold, snakemake.output.folds)
-    io.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
-    io.write_csv(cv_table(per_fold, y, oof, f"XGBoost residual model ({snakemake.wildcards.training} train)",
+    files.write_csv(per_fold, snakemake.output.folds)
+    files.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
+    files.write_csv(cv_table(per_fold, y, oof, f"XGBoost residual model ({snakemake.wildcards.training} train)",
                           f"approximate residuals of {len(y)} production rows "
                           f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
                           f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "

@@ -1,6 +1,6 @@
 """Step 6: retrain the residual model on all its training rows and freeze it (XGBoost JSON)."""
-from hybridtwin import io, residual
-from hybridtwin.data import read_checked
+from hybridtwin import files, residual
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
 
 
@@ -8,7 +8,7 @@ def main(snakemake):
     production = read_checked(snakemake.input.production)
     residuals = read_checked(snakemake.input.residuals)
     rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
-    params = io.read_json(snakemake.input.best)["params"]
+    params = files.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
     model.fit(production.loc[rows, snakemake.params.inputs].to_numpy(float), residuals.loc[rows, "residual_approx"])
     residual.save_model(model, snakemake.output.model, snakemake.params.inputs)

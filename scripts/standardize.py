@@ -1,8 +1,8 @@
 """Step 1: input standardization with DoE statistics only."""
 import pandas as pd
 
-from hybridtwin import io
-from hybridtwin.data import read_checked
+from hybridtwin import files
+from hybridtwin.files import read_checked
 from hybridtwin.gate import DoEStandardizer
 from hybridtwin.runner import run
 
@@ -11,8 +11,8 @@ def main(snakemake):
     inputs = snakemake.params.inputs
     doe = read_checked(snakemake.input.doe)
     standardizer = DoEStandardizer().fit(doe[inputs])
-    io.write_json(standardizer.to_dict(), snakemake.output.model)
-    io.write_csv(pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
+    files.write_json(standardizer.to_dict(), snakemake.output.model)
+    files.write_csv(pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
                  snakemake.output.table)
 
 

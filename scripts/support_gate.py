@@ -1,24 +1,24 @@
 """Step 2: kNN support gate; distance and in_support for every production row."""
 import pandas as pd
 
-from hybridtwin import data, io, plots
+from hybridtwin import data, files, plots
 from hybridtwin.gate import DoEStandardizer, KNNSupportGate
 from hybridtwin.runner import run
 
 
 def main(snakemake):
     inputs = snakemake.params.inputs
-    doe, production = (data.read_checked(snakemake.input[name]) for name in ("doe", "production"))
-    standardizer = DoEStandardizer.from_dict(io.read_json(snakemake.input.standardization))
+    doe, production = (files.read_checked(snakemake.input[name]) for name in ("doe", "production"))
+    standardizer = DoEStandardizer.from_dict(files.read_json(snakemake.input.standardization))
     gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile,
                           standardizer=standardizer).fit(doe[inputs])
     distance = gate.distance(production[inputs])
     support = pd.DataFrame({"knn_distance": distance, "in_support": gate.predict(production[inputs])})
     data.check_support(support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths,
                        gate.threshold_)
-    io.write_json(gate.to_dict(), snakemake.output.model)
-    io.write_csv(support, snakemake.output.production)
-    io.save_figure(plots.support_distances(gate.doe_distances_, distance, gate.threshold_, snakemake.params.percentile),
+    files.write_json(gate.to_dict(), snakemake.output.model)
+    files.write_csv(support, snakemake.output.production)
+    files.save_figure(plots.support_distances(gate.doe_distances_, distance, gate.threshold_, snakemake.params.percentile),
                    snakemake.output.figure)
 
 

@@ -1,9 +1,9 @@
 """Step 3a: K-fold CV of the GPR surrogate on the DoE -> Table 2 and a parity plot."""
-from hybridtwin import io, plots
-from hybridtwin.data import read_checked
+from hybridtwin import files, plots
+from hybridtwin.crossval import cross_validate, cv_table
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
 from hybridtwin.surrogate import GPRSurrogate
-from hybridtwin.validation import cross_validate, cv_table
 
 
 def main(snakemake):
@@ -13,9 +13,9 @@ def main(snakemake):
     per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, snakemake.params.seed)
     table = cv_table(per_fold, y, oof, "GPR surrogate (Matern 5/2, constant mean, learned noise)",
                      f"DoE, {len(y)} rows, {snakemake.params.folds}-fold CV; inputs standardized per training fold")
-    io.write_csv(table, snakemake.output.table)
-    io.write_csv(per_fold, snakemake.output.folds)
-    io.save_figure(plots.parity(y, oof, "simulated draw-in (DoE)", title="GPR surrogate, out-of-fold"),
+    files.write_csv(table, snakemake.output.table)
+    files.write_csv(per_fold, snakemake.output.folds)
+    files.save_figure(plots.parity(y, oof, "simulated draw-in (DoE)", title="GPR surrogate, out-of-fold"),
                    snakemake.output.figure)
 
 

@@ -1,9 +1,9 @@
 """Step 10: synthetic corrected data, the hybrid on the DoE points and on samples drawn inside the support."""
 
-from hybridtwin import io, residual
-from hybridtwin.data import read_checked
+from hybridtwin import files, residual
+from hybridtwin.files import read_checked
 from hybridtwin.gate import KNNSupportGate
-from hybridtwin.hybrid import synthetic_frame, sample_in_support
+from hybridtwin.hybrid import sample_in_support, synthetic_frame
 from hybridtwin.runner import run
 from hybridtwin.surrogate import GPRSurrogate
 
@@ -11,8 +11,8 @@ from hybridtwin.surrogate import GPRSurrogate
 def main(snakemake):
     p = snakemake.params
     doe = read_checked(snakemake.input.doe)
-    gate = KNNSupportGate.from_dict(io.read_json(snakemake.input.gate))
-    surrogate = GPRSurrogate.from_dict(io.read_json(snakemake.input.surrogate))
+    gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
+    surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
     model = residual.load_model(snakemake.input.model)
     samples = sample_in_support(gate, doe[p.inputs].min().to_numpy(), doe[p.inputs].max().to_numpy(),
                                 p.n_samples, p.seed)
@@ -21,7 +21,7 @@ def main(snakemake):
         frame = synthetic_frame(X, p.inputs, surrogate, model, gate)
         if name == "doe":
             frame.insert(len(p.inputs), "simulated", doe[p.target].to_numpy(float))
-        io.write_csv(frame, snakemake.output[name])
+        files.write_csv(frame, snakemake.output[name])
 
 
 run(snakemake, main)

@@ -1,15 +1,15 @@
 """Table 1: the data sets and their roles."""
-from hybridtwin import io
-from hybridtwin.data import read_checked
-from hybridtwin.hybrid import dataset_summary
+from hybridtwin import files
+from hybridtwin.files import read_checked
 from hybridtwin.runner import run
+from hybridtwin.tables import dataset_summary
 
 
 def main(snakemake):
     support = read_checked(snakemake.input.support)
     table = dataset_summary(len(read_checked(snakemake.input.doe)), len(support), int(support["in_support"].sum()),
                             len(read_checked(snakemake.input.matched)), snakemake.params.k, snakemake.params.percentile)
-    io.write_csv(table, snakemake.output.table)
+    files.write_csv(table, snakemake.output.table)
 
 
 run(snakemake, main)

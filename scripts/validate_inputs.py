@@ -1,7 +1,7 @@
 """Check one of the user's files (with what it is checked against) and write its checked copy."""
 import warnings
 
-from hybridtwin import data, io
+from hybridtwin import data, files
 from hybridtwin.runner import run
 
 
@@ -12,10 +12,10 @@ def main(snakemake):
         frame = data.load_datasets(snakemake.params.settings, roles=(role,))[role]
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
-    io.write_csv(frame, snakemake.output.table, float_format=None)  # exact round trip
+    files.write_csv(frame, snakemake.output.table, float_format=None)  # exact round trip
     lines = [f"{role}: {len(frame)} rows, {frame.shape[1]} columns"]
     lines += [f"WARNING: {warning.message}" for warning in caught]
-    with io.atomic_path(snakemake.output.report) as temporary:
+    with files.atomic_path(snakemake.output.report) as temporary:
         temporary.write_text("\n".join(lines) + "\n")
 
 

@@ -19,9 +19,17 @@ import pandas as pd
 import pytest
 import yaml
 
-from hybridtwin.data import (Columns, CsvFormat, DataWarning, InputError, check_support, load_datasets,
-                             warn_matched_outside,
-                             read_csv, require_columns)
+from hybridtwin.data import (
+    Columns,
+    CsvFormat,
+    DataWarning,
+    InputError,
+    check_support,
+    load_datasets,
+    read_csv,
+    require_columns,
+    warn_matched_outside,
+)
 from hybridtwin.gate import KNNSupportGate
 
 from .conftest import run_command

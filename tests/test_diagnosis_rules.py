@@ -6,6 +6,7 @@ import pytest
 from hybridtwin import diagnosis, forms
 from hybridtwin.diagnosis import Candidate, Settings, best_fit
 from hybridtwin.metrics import batch_means, block_p_value
+from hybridtwin.profiles import Identity
 
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
@@ -38,7 +39,7 @@ def _term(name: str, kind: str, term, values=None) -> diagnosis.Fit:
     """A fit whose term is ``term`` itself (on the candidate's ``values``, by default the term)."""
     term = np.asarray(term, float)
     values = term if values is None else values
-    return diagnosis.Fit(Candidate(name, kind, values, tuple(name.split("*"))), diagnosis.Identity(), term,
+    return diagnosis.Fit(Candidate.new(name, kind, values, tuple(name.split("*"))), Identity(), term,
                          1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
 
 
@@ -117,7 +118,7 @@ def test_a_closed_form_goes_ahead_of_a_monotone_trend_that_it_matches():
     rng = np.random.default_rng(2)
     x = rng.uniform(0, 1, 3000)
     y = np.where(x >= 0.5, 3.0, 0.0) + rng.normal(0, 0.3, 3000)
-    fit = best_fit(Candidate("shim", "input", x, ("shim",)), y - y.mean(), SETTINGS)
+    fit = best_fit(Candidate.new("shim", "input", x, ("shim",)), y - y.mean(), SETTINGS)
     by_form = {alt.form.name: alt for alt in fit.alternatives}
     trend_first = [by_form["monotone"], by_form["linear"], by_form["step"]]
     assert diagnosis._named_form_first(trend_first, min_effect=0.5)[0].form.name == "step"
@@ -131,7 +132,7 @@ def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
     temp = rng.uniform(20, 50, n)
     y = 6.0 / (1 + np.exp(-(temp - 35) / 1.5)) + rng.normal(0, 0.4, n)
     y -= y.mean()
-    fits = {name: best_fit(Candidate(name, kind, values, cols), y, SETTINGS, 0.5) for name, kind, values, cols in [
+    fits = {name: best_fit(Candidate.new(name, kind, values, cols), y, SETTINGS, 0.5) for name, kind, values, cols in [
         ("temp", "input", temp, ("temp",)),
         ("temp*other", "interaction", np.column_stack([temp, rng.normal(0, 1, n)]), ("temp", "other")),
     ]}
@@ -151,7 +152,7 @@ def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(dr
     drift = {"hours": hours, "strokes": strokes}[drift_along]
     y = 2.0 * (drift - drift.mean()) / drift.std() + rng.normal(0, 1.0, n)
     y -= y.mean()
-    fits = [best_fit(Candidate(name, kind, values, (name,)), y, SETTINGS, 0.5) for name, kind, values in [
+    fits = [best_fit(Candidate.new(name, kind, values, (name,)), y, SETTINGS, 0.5) for name, kind, values in [
         ("time", "time", hours), ("strokes", "log", strokes)]]
     best = min(fits, key=lambda fit: fit.score)
     chosen = diagnosis.prefer_simpler(best, fits, 1.0, lambda fit: True, y, SETTINGS)
@@ -171,11 +172,11 @@ def test_a_sigmoid_that_saturates_beyond_the_data_gives_way_to_a_slope():
     x = rng.uniform(0, 1, 4000)
     # a slope with a mild S inside (the surrogate's own error): a sigmoid scores best held out
     slope = 4.0 * x + 0.3 * np.tanh((x - 0.5) / 0.08) + rng.normal(0, 0.5, 4000)
-    fit = best_fit(Candidate("rp02", "input", x, ("rp02",)), slope - slope.mean(), SETTINGS, min_effect=1.0)
+    fit = best_fit(Candidate.new("rp02", "input", x, ("rp02",)), slope - slope.mean(), SETTINGS, min_effect=1.0)
     assert min(fit.alternatives, key=lambda alt: alt.score).form.name == "sigmoid"
     assert fit.form.name == "linear"  # it predicts the same, and its change is wider than the data
     step = np.where(x >= 0.5, 4.0, 0.0) + rng.normal(0, 0.5, 4000)
-    fit = best_fit(Candidate("shim", "input", x, ("shim",)), step - step.mean(), SETTINGS, min_effect=2.0)
+    fit = best_fit(Candidate.new("shim", "input", x, ("shim",)), step - step.mean(), SETTINGS, min_effect=2.0)
     assert fit.form.name in ("step", "sigmoid")  # a change the data show stays a change
 
 
@@ -188,8 +189,8 @@ def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     temp = 30 + 20 * strokes / n + rng.normal(0, 4, n)
     y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 4.0 * strokes / n + rng.normal(0, 0.5, n)
     y -= y.mean()
-    by_name = {"temp": Candidate("temp", "input", temp, ("temp",)),
-               "strokes": Candidate("strokes", "log", strokes, ("strokes",))}
+    by_name = {"temp": Candidate.new("temp", "input", temp, ("temp",)),
+               "strokes": Candidate.new("strokes", "log", strokes, ("strokes",))}
     alone = best_fit(by_name["temp"], y, SETTINGS, 0.5)
     quadratic = next(alt for alt in alone.alternatives if alt.form.name == "quadratic")
     models, means = forms.backfit([temp], ["quadratic"], y)
@@ -205,8 +206,8 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
     temp, other = rng.uniform(20, 50, n), rng.uniform(0, 1, n)
     y = 6.0 / (1 + np.exp(-(temp - 35) / 2.0)) + rng.normal(0, 0.4, n)
     y -= y.mean()
-    pair = Candidate("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
-    by_name = {"temp": Candidate("temp", "input", temp, ("temp",)), "other": Candidate("other", "input", other, ("other",))}
+    pair = Candidate.new("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
+    by_name = {"temp": Candidate.new("temp", "input", temp, ("temp",)), "other": Candidate.new("other", "input", other, ("other",))}
     selected = [best_fit(pair, y, SETTINGS)]
     assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
     assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"

@@ -5,13 +5,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin.extension import Cause, DiscrepancyExtension, gain_table
+from hybridtwin.causes import Cause, Term
+from hybridtwin.extension import DiscrepancyExtension, gain_table
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)
 B = 0.8 * A + 0.6 * RNG.normal(0, 1, 3000)
 FRAME = pd.DataFrame({"a": A, "b": B, "coil": np.where(A > 0, "K1", "K2")})
-LINEAR_A, LINEAR_B = Cause("a", "input", ("a",), "linear"), Cause("b", "log", ("b",), "linear")
+LINEAR_A, LINEAR_B = Term(Cause("a", "input", ("a",)), "linear"), Term(Cause("b", "log", ("b",)), "linear")
 
 
 def test_offset_alone_is_the_mean_residual():
@@ -36,7 +37,7 @@ def test_two_correlated_causes_are_fitted_jointly():
 def test_a_missing_cause_column_contributes_nothing():
     model = DiscrepancyExtension((LINEAR_A, LINEAR_B)).fit(FRAME, 1.0 + 2.0 * A - 3.0 * B)
     without_b = FRAME.drop(columns="b")
-    terms = model.terms(without_b)
+    terms = model.contributions(without_b)
     np.testing.assert_allclose(terms["b"], 0.0)
     np.testing.assert_allclose(model.predict(without_b), model.offset_ + terms["a"])
 
@@ -45,7 +46,7 @@ def test_a_term_fitted_to_a_step_is_held_beyond_the_fitted_values():
     x = RNG.uniform(0, 1, 4000)
     frame = pd.DataFrame({"shim": x})
     residual = np.where(x >= 0.5, 5.0, 0.0) + RNG.normal(0, 0.3, len(x))
-    model = DiscrepancyExtension((Cause("shim", "input", ("shim",), "linear"),)).fit(frame, residual)
+    model = DiscrepancyExtension((Term(Cause("shim", "input", ("shim",)), "linear"),)).fit(frame, residual)
     beyond = model.predict(pd.DataFrame({"shim": [x.max(), 2.0, 10.0]}))
     assert beyond == pytest.approx([beyond[0]] * 3)
 
@@ -54,7 +55,7 @@ def test_json_round_trip_keeps_trusted_ranges():
     x = RNG.uniform(0, 1, 4000)
     frame = pd.DataFrame({"shim": x, "coil": np.where(x > 0.3, "K1", "K2")})
     residual = np.where(x >= 0.5, 5.0, 0.0) + RNG.normal(0, 0.3, len(x))
-    causes = (Cause("shim", "input", ("shim",), "linear"), Cause("coil", "group", ("coil",), "group"))
+    causes = (Term(Cause("shim", "input", ("shim",)), "linear"), Term(Cause("coil", "group", ("coil",)), "group"))
     model = DiscrepancyExtension(causes).fit(frame, residual)
     loaded = DiscrepancyExtension.from_dict(json.loads(json.dumps(model.to_dict())))
     probe = pd.DataFrame({"shim": [-1.0, 0.2, 0.7, 3.0], "coil": ["K1", "K2", "new", "K1"]})

@@ -3,8 +3,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin.hybrid import production_predictions
-from hybridtwin.validation import splice_out_of_fold
+from hybridtwin.crossval import splice_out_of_fold
+from hybridtwin.tables import production_predictions
 
 
 def test_splice_puts_out_of_fold_values_at_the_training_rows():

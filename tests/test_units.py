@@ -1,8 +1,8 @@
 """Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
 import json
-import os
 import logging
 import math
+import os
 import threading
 from pathlib import Path
 
@@ -12,11 +12,11 @@ import pandas as pd
 import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
-from hybridtwin import hybrid, residual
+from hybridtwin import hybrid, residual, tables
+from hybridtwin.crossval import cross_validate, folds
 from hybridtwin.gate import DoEStandardizer, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
 from hybridtwin.surrogate import GPRSurrogate
-from hybridtwin.validation import cross_validate, folds
 
 optuna.logging.set_verbosity(optuna.logging.WARNING)
 
@@ -433,7 +433,7 @@ def test_matched_summary_by_hand():
     surrogate = [9.5, 11.0, 14.5]
     residual_pred = [0.5, 1.0, -1.0]
     in_support = [True, True, False]
-    summary, cases = hybrid.matched_summary(measured, simulated, surrogate, residual_pred, in_support)
+    summary, cases = tables.matched_summary(measured, simulated, surrogate, residual_pred, in_support)
 
     np.testing.assert_allclose(cases["true_residual"], [1.0, 0.0, -1.0])
     np.testing.assert_allclose(cases["pred_hybrid"], [10.0, 12.0, 13.5])
@@ -478,7 +478,7 @@ def test_sensitivity_table_by_hand():
         "pred_hybrid_oof": [10.0, 10.5, 9.0, 10.0],  # errors [0, -0.5, 1, 0]
         "pred_hybrid_unfiltered_oof": [11.0, 10.0, 10.0, 12.0],  # errors [-1, 0, 0, -2]
     })
-    table = hybrid.sensitivity_table(predictions).set_index("region")
+    table = tables.sensitivity_table(predictions).set_index("region")
     assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
     expected = {
         "rmse_surrogate_only": (1.0, math.sqrt(6.5), math.sqrt(15 / 4)),
@@ -502,13 +502,13 @@ def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
     rng = np.random.default_rng(0)
     levels = rng.permutation(np.repeat(np.linspace(0.4, 0.7, 40), 50))  # 40 campaign settings, 50 parts each
     settings = Settings(folds=5, seed=3)
-    splits = value_folds(Candidate("shim", "input", levels, ("shim",)), settings)
+    splits = value_folds(Candidate.new("shim", "input", levels, ("shim",)), settings)
     assert sorted(np.concatenate([test for _, test in splits]).tolist()) == list(range(len(levels)))
     for train, test in splits:
         assert not set(levels[train]) & set(levels[test]), "a setting level on both sides of a fold"
         assert len(np.unique(levels[test])) == 8, "each fold holds out four bins of two levels each"
     ids = np.array([f"K{i % 30}" for i in range(len(levels))])
-    shuffled = value_folds(Candidate("coil", "group", ids, ("coil",)), settings)
+    shuffled = value_folds(Candidate.new("coil", "group", ids, ("coil",)), settings)
     assert all(set(ids[train]) >= set(ids[test]) for train, test in shuffled), "group levels are seen in training"
 
 
@@ -520,7 +520,7 @@ def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(
     rng = np.random.default_rng(1)
     a, b = rng.uniform(-1, 1, (2, 3000))
     y = 2.0 * a + 3.0 * b + (4.0 * a * b if with_product else 0.0) + rng.normal(0, 0.3, 3000)
-    fit = best_fit(Candidate("a*b", "interaction", np.column_stack([a, b]), ("a", "b")), y - y.mean(), Settings())
+    fit = best_fit(Candidate.new("a*b", "interaction", np.column_stack([a, b]), ("a", "b")), y - y.mean(), Settings())
     assert fit.form.name == expected
     assert is_significant(fit, 1, Settings(), min_effect=0.1) == with_product
     assert diagnosis.forms.FAMILIES[fit.form.name] == ("interaction" if with_product else "additive")
@@ -540,12 +540,12 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
 
 @pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
 def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
-    from hybridtwin import io
+    from hybridtwin import files
 
     frame = pd.DataFrame({"x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf], "n": [1, 2, 3, 4, 5],
                           "text": ["a", "b", "c", "d", "e"], "flag": [True, False, True, False, True]})
-    io.write_csv(frame, tmp_path / "ours.csv", sep=sep, decimal=decimal)
-    frame.to_csv(tmp_path / "pandas.csv", index=False, float_format=io.FLOAT_FORMAT, lineterminator="\n", sep=sep,
+    files.write_csv(frame, tmp_path / "ours.csv", sep=sep, decimal=decimal)
+    frame.to_csv(tmp_path / "pandas.csv", index=False, float_format=files.FLOAT_FORMAT, lineterminator="\n", sep=sep,
                  decimal=decimal)
     assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
 
@@ -573,26 +573,26 @@ def test_a_job_whose_workflow_is_gone_writes_nothing(tmp_path, monkeypatch):
     import subprocess
     import sys
 
-    from hybridtwin import io
+    from hybridtwin import files
 
     gone = subprocess.Popen([sys.executable, "-c", "pass"])
     gone.wait()  # reaped: its pid no longer runs
     target = tmp_path / "best_params.json"
     target.write_text("the later run's\n")
-    monkeypatch.setenv(io.OWNER_ENVIRONMENT, str(gone.pid))
-    with pytest.raises(io.OrphanedJob, match="cannot overwrite"):
-        io.write_json({"params": 1}, target)
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, str(gone.pid))
+    with pytest.raises(files.OrphanedJob, match="cannot overwrite"):
+        files.write_json({"params": 1}, target)
     assert target.read_text() == "the later run's\n"
     assert [p.name for p in tmp_path.iterdir()] == ["best_params.json"]  # no temporary file left either
-    monkeypatch.setenv(io.OWNER_ENVIRONMENT, str(os.getpid()))  # a running workflow: written
-    io.write_json({"params": 1}, target)
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, str(os.getpid()))  # a running workflow: written
+    files.write_json({"params": 1}, target)
     assert "params" in target.read_text()
 
 
 def test_a_cluster_job_on_another_machine_is_not_taken_for_an_orphan(tmp_path, monkeypatch):
-    from hybridtwin import io
+    from hybridtwin import files
 
-    monkeypatch.setenv(io.OWNER_ENVIRONMENT, "999999999")  # no such process here
-    monkeypatch.setenv(io.OWNER_ENVIRONMENT + "_HOST", "another-node")
-    io.write_json({"params": 1}, tmp_path / "best.json")
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, "999999999")  # no such process here
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT + "_HOST", "another-node")
+    files.write_json({"params": 1}, tmp_path / "best.json")
     assert (tmp_path / "best.json").exists()

@@ -21,7 +21,7 @@ import pytest
 import xgboost as xgb
 import yaml
 
-from hybridtwin import io
+from hybridtwin import files
 from hybridtwin.extension import DiscrepancyExtension
 from hybridtwin.gate import KNNSupportGate
 from hybridtwin.surrogate import GPRSurrogate
@@ -130,15 +130,15 @@ def test_models_load_with_their_own_loaders_and_reproduce_predictions(run_dir):
     predictions = pd.read_csv(run_dir / "results/predictions/production.csv")
     inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
     X = production[inputs].to_numpy(float)
-    surrogate = GPRSurrogate.from_dict(io.read_json(models / "surrogate_gpr.json")).predict(X)
+    surrogate = GPRSurrogate.from_dict(files.read_json(models / "surrogate_gpr.json")).predict(X)
     assert np.allclose(surrogate, predictions["pred_surrogate"], atol=1e-5)
     booster = xgb.Booster()
     booster.load_model(models / "residual_xgb_filtered.json")
     residual = booster.predict(xgb.DMatrix(production[inputs]))  # the model checks the column names
     assert np.allclose(surrogate + residual, predictions["pred_hybrid"], atol=1e-4)
-    gate = KNNSupportGate.from_dict(io.read_json(models / "support_gate.json"))
+    gate = KNNSupportGate.from_dict(files.read_json(models / "support_gate.json"))
     assert (gate.predict(X) == predictions["in_support"].to_numpy()).all()
-    extension = DiscrepancyExtension.from_dict(io.read_json(models / "extension.json"))
+    extension = DiscrepancyExtension.from_dict(files.read_json(models / "extension.json"))
     assert np.allclose(surrogate + extension.predict(production), predictions["pred_extended"], atol=1e-4)
 
 
@@ -293,8 +293,8 @@ SHARED_WITH_PRODUCTION = ("in_support", "knn_distance", "pred_surrogate", "pred_
 
 
 def _as_written(frame: pd.DataFrame, columns, path) -> pd.DataFrame:
-    """Columns as the workflow writes them (io.write_csv's float format), read back as text."""
-    io.write_csv(frame[list(columns)], path)
+    """Columns as the workflow writes them (files.write_csv's float format), read back as text."""
+    files.write_csv(frame[list(columns)], path)
     return pd.read_csv(path, dtype=str)
 
 
@@ -319,7 +319,7 @@ def test_every_model_file_names_its_inputs(run_dir):
     models = run_dir / "results/models"
     for name in ("surrogate_gpr.json", "support_gate.json", "doe_standardization.json", "predictor.json",
                  "peer_gp_discrepancy.json", "peer_cokriging.json"):
-        assert io.read_json(models / name)["inputs"] == inputs, name
+        assert files.read_json(models / name)["inputs"] == inputs, name
     for name in ("residual_xgb_filtered.json", "residual_xgb_unfiltered.json", "residual_xgb_extended.json"):
         booster = xgb.Booster()
         booster.load_model(models / name)

@@ -16,11 +16,11 @@ import pandas as pd
 import xgboost as xgb
 
 from .. import diagnosis, residual
-from . import plant as demo
-from ..extension import causes_from_diagnosis, fit_models
+from ..extension import fit_models
 from ..gate import KNNSupportGate
 from ..metrics import rmse
-from ..surrogate import GPRSurrogate
+from ..surrogate import GPRSurrogate, surrogate_latent_std
+from . import plant as demo
 from .families import Expected, PlantCase, draw_plant
 
 # A fixed, moderate XGBoost setting stands in for the tuned one to keep scenarios fast.
@@ -254,7 +254,7 @@ def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Se
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
     start = time.perf_counter()
     result = diagnosis.diagnose(production.loc[inside].drop(columns=[target]), r[inside], inputs, [target], settings,
-                                surrogate_std=diagnosis.surrogate_latent_std(std[inside], surrogate.noise_std_))
+                                surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_))
     seconds = time.perf_counter() - start
     X = production[inputs].to_numpy(float)
     rows = np.flatnonzero(inside)
@@ -263,7 +263,7 @@ def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Se
         return residual.make_model(SCENARIO_XGB, seed, n_jobs)
 
     hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], causes_from_diagnosis(result.selected), make_xgb)
+    models = fit_models(production.iloc[rows], X[rows], r[rows], result.terms, make_xgb)
     extended = mean + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
     measured, truth = production[target].to_numpy(float), case.truth
@@ -318,9 +318,9 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
     the truth-RMSE out of and in the support on those rows.
     """
     from .. import intervals, peers
+    from ..crossval import cross_validate
+    from ..crossval import folds as fold_splits
     from ..extension import cross_validated
-    from ..validation import cross_validate
-    from ..validation import folds as fold_splits
 
     inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
     gate = KNNSupportGate().fit(doe[inputs])
@@ -332,14 +332,14 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
     r = measured - mean
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
     result = diagnosis.diagnose(production.loc[inside].drop(columns=[target]), r[inside], inputs, [target], settings,
-                                surrogate_std=diagnosis.surrogate_latent_std(std[inside], surrogate.noise_std_))
+                                surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_))
     X = production[inputs].to_numpy(float)
     rows = np.flatnonzero(inside)
 
     def make_xgb():
         return residual.make_model(SCENARIO_XGB, seed, n_jobs)
 
-    causes = causes_from_diagnosis(result.selected)
+    causes = result.terms
     splits = fold_splits(len(rows), folds, seed + 1)
     hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
     _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, seed + 1)

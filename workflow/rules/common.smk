@@ -4,7 +4,7 @@ import os
 import socket
 from pathlib import Path
 
-# the jobs' outputs are renamed into place only while this run lives (hybridtwin.io.check_owner):
+# the jobs' outputs are renamed into place only while this run lives (hybridtwin.files.check_owner):
 # a job orphaned by a killed run cannot overwrite the outputs of a later one
 os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID", str(os.getpid()))  # a job's own re-parse keeps the run's
 os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID_HOST", socket.gethostname())

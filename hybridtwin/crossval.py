@@ -6,7 +6,9 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import KFold
 
-from .metrics import bias, mae, r2, rmse
+from .metrics import scores
+
+CV_METRICS = ("rmse", "mae", "bias", "r2")  # the column order of the CV tables
 
 
 def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -27,8 +29,8 @@ def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) ->
     for fold, (train, test) in enumerate(folds(len(y), n_folds, seed), start=1):
         model = clone(estimator).fit(X[train], y[train])
         oof[test] = model.predict(X[test])
-        rows.append({"fold": fold, "n_train": len(train), "n_test": len(test), "rmse": rmse(y[test], oof[test]),
-                     "mae": mae(y[test], oof[test]), "bias": bias(y[test], oof[test]), "r2": r2(y[test], oof[test])})
+        rows.append({"fold": fold, "n_train": len(train), "n_test": len(test),
+                     **scores(y[test], oof[test], names=CV_METRICS)})
         if after_fold is not None:
             after_fold(rows)
     return pd.DataFrame(rows), oof
@@ -37,10 +39,10 @@ def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) ->
 def cv_table(per_fold: pd.DataFrame, y, oof, model: str, evaluated_on: str) -> pd.DataFrame:
     """One-row summary: mean and std over folds, and the pooled out-of-fold scores."""
     row = {"model": model, "n": len(y), "folds": len(per_fold)}
-    for metric in ("rmse", "mae", "bias", "r2"):
+    for metric in CV_METRICS:
         row[f"cv_{metric}_mean"] = float(per_fold[metric].mean())
         row[f"cv_{metric}_std"] = float(per_fold[metric].std(ddof=1)) if len(per_fold) > 1 else 0.0
-    row.update({"pooled_r2": r2(y, oof), "pooled_rmse": rmse(y, oof), "pooled_mae": mae(y, oof)})
+    row.update({f"pooled_{name}": value for name, value in scores(y, oof, names=("r2", "rmse", "mae")).items()})
     row["evaluated_on"] = evaluated_on
     return pd.DataFrame([row])
 

@@ -1,0 +1,81 @@
+"""A cause of the simulation's error: which production column(s), read how.
+
+The diagnosis chooses causes (:mod:`hybridtwin.diagnosis`), the extension fits their
+terms (:mod:`hybridtwin.extension`); both name a cause with :class:`Cause` and read
+its values from a table with :meth:`Cause.values`, so the two cannot read a column
+differently. A timestamp column is a cause in elapsed hours since a fixed origin
+(the earliest stamp of the rows it was chosen on), so new rows are read on the same
+clock.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+KINDS = ("input", "log", "time", "group", "interaction")  # model input, other number, timestamp, id, input pair
+MAX_UNPARSED_STAMPS = 0.01  # a text column is read as timestamps when at most this share fails to parse
+
+
+def parse_timestamps(values: pd.Series) -> pd.Series | None:
+    """Text as timestamps (ISO first, then day-first formats), or None if they are not timestamps."""
+    text = values.astype(str)
+    stamps = pd.to_datetime(text, errors="coerce", format="ISO8601")
+    if stamps.isna().mean() > MAX_UNPARSED_STAMPS:
+        stamps = pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
+    return None if stamps.isna().mean() > MAX_UNPARSED_STAMPS else stamps
+
+
+def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
+    """Timestamps as hours since ``origin`` (default: the earliest), or None if they are not timestamps."""
+    stamps = parse_timestamps(values)
+    if stamps is None:
+        return None
+    start = stamps.min() if origin is None else pd.Timestamp(origin)
+    return ((stamps - start).dt.total_seconds() / 3600.0).to_numpy(float)
+
+
+def time_origin(values: pd.Series) -> str:
+    """The earliest timestamp, as text: the origin a time cause's elapsed hours count from."""
+    return str(parse_timestamps(values).min())
+
+
+@dataclass(frozen=True)
+class Cause:
+    name: str
+    kind: str  # one of KINDS
+    columns: tuple[str, ...]
+    origin: str | None = None  # time causes: the timestamp elapsed hours count from
+
+    def values(self, frame: pd.DataFrame) -> np.ndarray:
+        """The values a cause's form is fitted on: numbers, elapsed hours, level labels or a column pair."""
+        if self.kind == "interaction":
+            return np.column_stack([frame[c].to_numpy(float) for c in self.columns])
+        if self.kind == "time":
+            return elapsed_hours(frame[self.columns[0]], self.origin)
+        if self.kind == "group":
+            return frame[self.columns[0]].astype(str).to_numpy()
+        return frame[self.columns[0]].to_numpy(float)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "kind": self.kind, "columns": list(self.columns), "origin": self.origin}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Cause":
+        return cls(data["name"], data["kind"], tuple(data["columns"]), data.get("origin"))
+
+
+@dataclass(frozen=True)
+class Term:
+    """A cause with the name of the form its effect takes: what the extension fits."""
+
+    cause: Cause
+    form: str
+
+    def to_dict(self) -> dict:
+        return {**self.cause.to_dict(), "form": self.form}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Term":
+        return cls(Cause.from_dict(data), data["form"])

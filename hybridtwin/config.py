@@ -1,0 +1,102 @@
+"""The workflow's config, checked against one JSON schema shipped in this package.
+
+The schema (``config.schema.yaml`` beside this module) is the single source of the
+config's keys, types, ranges and defaults: the Snakefile, the frozen predictor and the
+tests read the same file. A bad value stops with one plain line that names the key, the
+value and the rule it breaks, for example ``config error: tuning.n_trials = 0, must be
+at least 1``, instead of a dump of the validator's state.
+"""
+from __future__ import annotations
+
+import copy
+import difflib
+from pathlib import Path
+
+import jsonschema
+import yaml
+
+from .data import InputError, other_csvs
+
+SCHEMA_PATH = Path(__file__).with_name("config.schema.yaml")
+
+TYPE_WORDS = {"integer": "a whole number", "number": "a number", "string": "text", "array": "a list",
+              "object": "a mapping of keys to values", "boolean": "true or false"}
+
+
+class ConfigError(InputError):
+    """A config value the schema rejects, or a data file the config names that does not exist."""
+
+
+def schema() -> dict:
+    return yaml.safe_load(SCHEMA_PATH.read_text())
+
+
+def _with_defaults(validator_class):
+    """A validator that fills in each missing key's default before checking it (as Snakemake's ``validate``)."""
+    check_properties = validator_class.VALIDATORS["properties"]
+
+    def properties(validator, properties, instance, schema):
+        if isinstance(instance, dict):
+            for key, subschema in properties.items():
+                if "default" in subschema:
+                    instance.setdefault(key, copy.deepcopy(subschema["default"]))
+        yield from check_properties(validator, properties, instance, schema)
+
+    return jsonschema.validators.extend(validator_class, {"properties": properties})
+
+
+def check(config: dict) -> dict:
+    """Fill in the schema's defaults in ``config`` (in place) and check it; returns it.
+
+    Raises :class:`ConfigError` with one line about the first bad key.
+    """
+    rules = schema()
+    validator = _with_defaults(jsonschema.validators.validator_for(rules))(rules)
+    error = jsonschema.exceptions.best_match(validator.iter_errors(config))
+    if error is not None:
+        raise ConfigError(describe(error))
+    return config
+
+
+def _key(path) -> str:
+    return ".".join(str(part) for part in path)
+
+
+def _value(value) -> str:
+    return repr(value) if isinstance(value, str) else yaml.safe_dump(value, default_flow_style=True).strip()
+
+
+def describe(error: jsonschema.ValidationError) -> str:
+    """One line: the key, its value and the rule it breaks."""
+    key, rule, limit = _key(error.absolute_path), error.validator, error.validator_value
+    if rule == "required":
+        missing = [name for name in limit if name not in error.instance]
+        where = f"{key}." if key else ""
+        return f"config error: {where}{missing[0]} is missing" + (f" (under {key})" if key else "")
+    if rule == "additionalProperties":
+        known = sorted(error.schema.get("properties", {}))
+        unknown = sorted(set(error.instance) - set(known))
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f", did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(known)}"
+        return f"config error: {_key([*error.absolute_path, unknown[0]])} is not a known key{hint}"
+    says = {
+        "minimum": f"must be at least {limit}",
+        "maximum": f"must be at most {limit}",
+        "exclusiveMinimum": f"must be more than {limit}",
+        "exclusiveMaximum": f"must be less than {limit}",
+        "type": f"must be {TYPE_WORDS.get(limit, limit)}",
+        "enum": "must be one of " + ", ".join(_value(option) for option in limit),
+        "minItems": f"must list at least {limit}",
+        "minLength": "must not be empty",
+        "uniqueItems": "must not list a name twice",
+    }.get(rule, error.message)
+    return f"config error: {key or 'the config'} = {_value(error.instance)}, {says}"
+
+
+def missing_data_files(config: dict, made_by_the_workflow=()) -> None:
+    """Stop with a :class:`ConfigError` naming the ``data.*`` key whose file does not exist
+    (paths under ``made_by_the_workflow``, such as the demo plant's, are written by the run)."""
+    for role, path in config.get("data", {}).items():
+        if Path(path).exists() or any(Path(path).is_relative_to(folder) for folder in made_by_the_workflow):
+            continue
+        raise ConfigError(f"config error: data.{role} = {path!r}, no such file{other_csvs(Path(path))}")
