@@ -1,7 +1,12 @@
 # Hybrid metamodel for sheet-metal stamping: GPR surrogate of the simulator, kNN
 # support gate, XGBoost residual model learned from approximate residuals, and
 # the diagnosis of what the simulation gets wrong. See README.md.
-from snakemake.utils import min_version, validate
+import sys
+from pathlib import Path
+
+from snakemake.utils import min_version
+
+from hybridtwin.config import ConfigError, check, missing_data_files
 
 min_version("9.0")
 
@@ -9,7 +14,13 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
-validate(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
+# one schema, shipped in the package, for keys, types, ranges and defaults; a bad value or a data
+# file that does not exist stops the run with one plain line naming the key (before any job runs)
+try:
+    check(config)
+    missing_data_files(config, made_by_the_workflow=[Path(config["results_dir"], "demo")])
+except ConfigError as error:
+    sys.exit(str(error))
 
 
 

@@ -14,7 +14,7 @@ import sys
 
 import pandas as pd
 
-from .data import CsvFormat, InputError
+from .data import SEPARATORS, CsvFormat, InputError
 from .predictor import Predictor
 
 
@@ -59,8 +59,8 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--without-peers", action="store_true",
                          help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
                               "a region's best model, the next one is recommended)")
-    predict.add_argument("--sep", help="CSV separator, if not the run's csv.sep")
-    predict.add_argument("--decimal", help="decimal mark, if not the run's csv.decimal")
+    predict.add_argument("--sep", choices=list(SEPARATORS), help="CSV separator, if not the run's csv.sep")
+    predict.add_argument("--decimal", choices=[".", ","], help="decimal mark, if not the run's csv.decimal")
     return parser
 
 

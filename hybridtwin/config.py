@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import json
 from pathlib import Path
 
 import jsonschema
@@ -63,7 +64,7 @@ def _key(path) -> str:
 
 
 def _value(value) -> str:
-    return repr(value) if isinstance(value, str) else yaml.safe_dump(value, default_flow_style=True).strip()
+    return repr(value) if isinstance(value, str) else json.dumps(value)
 
 
 def describe(error: jsonschema.ValidationError) -> str:
@@ -80,16 +81,16 @@ def describe(error: jsonschema.ValidationError) -> str:
         hint = f", did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(known)}"
         return f"config error: {_key([*error.absolute_path, unknown[0]])} is not a known key{hint}"
     says = {
-        "minimum": f"must be at least {limit}",
-        "maximum": f"must be at most {limit}",
-        "exclusiveMinimum": f"must be more than {limit}",
-        "exclusiveMaximum": f"must be less than {limit}",
-        "type": f"must be {TYPE_WORDS.get(limit, limit)}",
-        "enum": "must be one of " + ", ".join(_value(option) for option in limit),
-        "minItems": f"must list at least {limit}",
-        "minLength": "must not be empty",
-        "uniqueItems": "must not list a name twice",
-    }.get(rule, error.message)
+        "minimum": lambda: f"must be at least {limit}",
+        "maximum": lambda: f"must be at most {limit}",
+        "exclusiveMinimum": lambda: f"must be more than {limit}",
+        "exclusiveMaximum": lambda: f"must be less than {limit}",
+        "type": lambda: f"must be {TYPE_WORDS.get(limit, limit)}",
+        "enum": lambda: "must be one of " + ", ".join(_value(option) for option in limit),
+        "minItems": lambda: f"must list at least {limit}",
+        "minLength": lambda: "must not be empty",
+        "uniqueItems": lambda: "must not list a name twice",
+    }.get(rule, lambda: error.message)()
     return f"config error: {key or 'the config'} = {_value(error.instance)}, {says}"
 
 

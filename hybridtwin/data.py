@@ -45,34 +45,16 @@ class Columns:
 
     @classmethod
     def from_config(cls, columns: dict) -> "Columns":
-        if not isinstance(columns, dict):
-            raise InputError(f"config columns must be a mapping (inputs, target, matched_simulated, "
-                             f"matched_measured), got {columns!r}")
-        inputs = columns.get("inputs") or ()
-        if not isinstance(inputs, (list, tuple)):
-            raise InputError(f"config columns.inputs must be a list of column names, got {inputs!r}")
-        for key in ("target", "matched_simulated", "matched_measured"):
-            value = columns.get(key, "")
-            if not isinstance(value, str):
-                raise InputError(f"config columns.{key} must be one column name, got {value!r}")
-        not_names = [name for name in inputs if not isinstance(name, str) or not name.strip()]
-        if not_names:
-            raise InputError(f"config columns.inputs must hold column names, got {', '.join(map(repr, not_names))}")
-        names = cls(tuple(inputs), columns.get("target", ""), columns.get("matched_simulated", ""),
-                    columns.get("matched_measured", ""))
+        """From the checked config (types, empty and repeated names are the schema's checks)."""
+        names = cls(tuple(columns["inputs"]), columns["target"], columns["matched_simulated"],
+                    columns["matched_measured"])
         names.check()
         return names
 
     def check(self) -> None:
-        if not self.inputs:
-            raise InputError("config columns.inputs is empty: list the process and material input columns")
-        repeated = sorted({name for name in self.inputs if self.inputs.count(name) > 1})
-        if repeated:
-            raise InputError(f"config columns.inputs lists {', '.join(map(repr, repeated))} more than once")
+        """What the schema cannot say: a target is not an input, and simulated and measured differ."""
         for key in ("target", "matched_simulated", "matched_measured"):
             value = getattr(self, key)
-            if not value:
-                raise InputError(f"config columns.{key} is empty")
             if value in self.inputs:
                 raise InputError(f"config columns.{key} {value!r} is also listed in columns.inputs: "
                                  "a target cannot be an input")
@@ -89,14 +71,9 @@ class CsvFormat:
     decimal: str = "."
 
     @classmethod
-    def from_config(cls, config: dict | None) -> "CsvFormat":
-        config = config or {}
-        fmt = cls(config.get("sep", ","), config.get("decimal", "."))
-        if fmt.sep not in SEPARATORS:
-            raise InputError(f"config csv.sep {fmt.sep!r} is not one of {', '.join(map(repr, SEPARATORS))}")
-        if fmt.decimal not in (".", ","):
-            raise InputError(f"config csv.decimal {fmt.decimal!r} is not one of '.', ','")
-        return fmt
+    def from_config(cls, config: dict) -> "CsvFormat":
+        """From the checked config's ``csv:`` (the schema lists the separators and decimal marks)."""
+        return cls(config["sep"], config["decimal"])
 
 
 # separators the config may name, and how a message calls an export written with them
@@ -110,7 +87,7 @@ def _line(row_index: int) -> str:
     return f"row {row_index + 1} (line {row_index + 2})"
 
 
-def _other_csvs(path: Path) -> str:
+def other_csvs(path: Path) -> str:
     """For a missing file: the CSV files that are in its folder, and the closest name."""
     folder = path.parent
     if not folder.is_dir():
@@ -204,7 +181,7 @@ def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.Da
     path = Path(path)
     where = f"{role} file {str(path)!r}"
     if not path.exists():
-        raise InputError(f"{where} does not exist{_config_entry(role)}{_other_csvs(path)}")
+        raise InputError(f"{where} does not exist{_config_entry(role)}{other_csvs(path)}")
     if path.is_dir():
         raise InputError(f"{where} is a folder, not a CSV file{_config_entry(role)}")
     text = _decode(path.read_bytes(), where, fmt)
@@ -469,41 +446,24 @@ def warn(message: str) -> None:
     warnings.warn(message, DataWarning, stacklevel=2)
 
 
-def _setting(config: dict, section: str, key: str, default: int, minimum: int) -> int:
-    """A whole-number setting of the config, checked (the workflow's schema checks it too)."""
-    part = config.get(section) or {}
-    value = part.get(key, default) if isinstance(part, dict) else part
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(f"config {section}.{key} is {value!r}: it must be a whole number (at least {minimum})")
-    if value < minimum:
-        raise InputError(f"config {section}.{key} is {value}: it must be at least {minimum}")
-    return int(value)
-
-
 ROLES = ("doe", "production", "matched")
 
 
 def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     """Read and check the configured files of ``roles``; warn on usable oddities.
 
+    ``config`` is checked against the schema (:func:`hybridtwin.config.check`): here only what needs the data.
+
     Each file is checked with what it needs besides itself: production against the DoE's ranges,
     matched cases against the production log (a matched case must not be a training part).
     """
-    columns = Columns.from_config(config.get("columns"))
-    fmt = CsvFormat.from_config(config.get("csv"))
-    folds = _setting(config, "cv", "folds", 5, minimum=2)
-    k = _setting(config, "gate", "k", 5, minimum=1)
-    paths = config.get("data") or {}
+    columns = Columns.from_config(config["columns"])
+    fmt = CsvFormat.from_config(config["csv"])
+    paths = config["data"]
     needed = set(roles) | ({"doe"} if "production" in roles else set()) | ({"production"} if "matched" in roles else set())
-    for role in (role for role in ROLES if role in needed):
-        if not isinstance(paths.get(role), (str, Path)) or not str(paths.get(role)).strip():
-            raise InputError(f"config data.{role} is not set: name the {role} CSV file "
-                             f"(got {paths.get(role)!r})")
     frames = {}
     if "doe" in needed:
-        frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=folds, k=k)
+        frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=config["cv"]["folds"], k=config["gate"]["k"])
     if "production" in needed:
         frames["production"] = load_production(paths["production"], columns, fmt)
     if "matched" in needed:
