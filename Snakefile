@@ -23,7 +23,6 @@ except ConfigError as error:
     sys.exit(str(error))
 
 
-
 report: "workflow/report/workflow.rst"
 
 
@@ -39,6 +38,6 @@ include: "workflow/rules/enrichment.smk"
 
 
 rule all:
+    default_target: True
     input:
         final_outputs(),
-    default_target: True

@@ -12,6 +12,7 @@ the jobs that reran and the run's wall time. The proposals are run twice: with t
 starting warm from the earlier study's best trials (the workflow's default) and cold
 (``tuning.warm_start: 0``), to measure what the warm start saves on an enriched DoE.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -63,8 +64,12 @@ def run_extension(workdir: Path, config: dict, points: np.ndarray, inputs: list[
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(scratch)
         shutil.copytree(workdir / "results", folder / "results", symlinks=True)
-        shutil.copytree(workdir / ".snakemake", folder / ".snakemake", symlinks=True,
-                        ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"))
+        shutil.copytree(
+            workdir / ".snakemake",
+            folder / ".snakemake",
+            symlinks=True,
+            ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"),
+        )
         (folder / "config.yaml").write_text(yaml.safe_dump(config))
         doe_path = folder / config["data"]["doe"]
         doe = pd.read_csv(doe_path)
@@ -73,18 +78,41 @@ def run_extension(workdir: Path, config: dict, points: np.ndarray, inputs: list[
         new[target] = demo.simulator(new) + np.random.default_rng(seed).normal(0.0, fe_scatter, len(new))
         pd.concat([doe, new[doe.columns]], ignore_index=True).round(4).to_csv(doe_path, index=False)
         start, start_stamp = time.perf_counter(), time.time()
-        result = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(folder),
-                                 "--configfile", str(folder / "config.yaml"), "--cores", "2"],
-                                capture_output=True, text=True)
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "snakemake",
+                "-s",
+                str(ROOT / "Snakefile"),
+                "-d",
+                str(folder),
+                "--configfile",
+                str(folder / "config.yaml"),
+                "--cores",
+                "2",
+            ],
+            capture_output=True,
+            text=True,
+        )
         seconds = time.perf_counter() - start
         if result.returncode != 0:
             raise SystemExit(result.stderr[-3000:])
         jobs = len(re.findall(r"^(?:local)?rule (?!all:)\w+:", result.stderr, re.M))
         # each rerun job's own wall time, from the benchmark files it rewrote
-        rules = {path.stem: float(pd.read_csv(path, sep="\t")["s"].iloc[-1])
-                 for path in (folder / "results/benchmarks").glob("*.tsv") if path.stat().st_mtime >= start_stamp}
-        return {**scores(folder), "jobs_rerun": jobs, "wall_seconds": seconds, "doe_rows": len(doe) + len(new),
-                "rule_seconds": rules, "best_so_far": best_so_far(folder / "results/tuning/trials.csv")}
+        rules = {
+            path.stem: float(pd.read_csv(path, sep="\t")["s"].iloc[-1])
+            for path in (folder / "results/benchmarks").glob("*.tsv")
+            if path.stat().st_mtime >= start_stamp
+        }
+        return {
+            **scores(folder),
+            "jobs_rerun": jobs,
+            "wall_seconds": seconds,
+            "doe_rows": len(doe) + len(new),
+            "rule_seconds": rules,
+            "best_so_far": best_so_far(folder / "results/tuning/trials.csv"),
+        }
 
 
 def best_so_far(trials_csv: Path) -> np.ndarray:
@@ -104,10 +132,12 @@ def scores(folder: Path) -> dict:
     intervals = pd.read_csv(folder / "results/tables/prediction_intervals.csv")
     recommended = intervals[(intervals["model"] == "recommended") & (intervals["calibration"] == "by_region")]
     comparison = pd.read_csv(folder / "results/tables/peer_comparison.csv").set_index("model")
-    return {"share_in_support": table1["Production in-support subset"] / table1["Production (all)"],
-            "rmse_truth_all_heldout": float(recommended.set_index("region").loc["all", "rmse_truth_test"]),
-            "rmse_truth_out_of_support": float(comparison.loc["recommended", "rmse_truth_out_of_support"]),
-            "n_out_of_support_heldout": int(comparison.loc["recommended", "n_out_of_support"])}
+    return {
+        "share_in_support": table1["Production in-support subset"] / table1["Production (all)"],
+        "rmse_truth_all_heldout": float(recommended.set_index("region").loc["all", "rmse_truth_test"]),
+        "rmse_truth_out_of_support": float(comparison.loc["recommended", "rmse_truth_out_of_support"]),
+        "n_out_of_support_heldout": int(comparison.loc["recommended", "n_out_of_support"]),
+    }
 
 
 def main() -> None:
@@ -126,35 +156,54 @@ def main() -> None:
     proposals = pd.read_csv(workdir / "results/enrichment/proposed_simulations.csv")[inputs].to_numpy(float)
     n = len(proposals)
     low, high = enrichment.physical_limits(doe, production, 0.05)
-    extensions = {"proposals": proposals,
-                  "space-filling (maximin LHS)": space_filling(doe, low, high, n, args.seed),
-                  "k-means of out-of-support parts": kmeans_centres(doe, production, k, percentile, n, args.seed)}
-    rows = [{"extension": "none (today's DoE)", **scores(workdir), "jobs_rerun": 0, "wall_seconds": 0.0,
-             "doe_rows": len(doe)}]
+    extensions = {
+        "proposals": proposals,
+        "space-filling (maximin LHS)": space_filling(doe, low, high, n, args.seed),
+        "k-means of out-of-support parts": kmeans_centres(doe, production, k, percentile, n, args.seed),
+    }
+    rows = [
+        {
+            "extension": "none (today's DoE)",
+            **scores(workdir),
+            "jobs_rerun": 0,
+            "wall_seconds": 0.0,
+            "doe_rows": len(doe),
+        }
+    ]
     for name, points in extensions.items():
         rows.append({"extension": name, **run_extension(workdir, config, points, inputs, target, args.seed)})
         print({k: v for k, v in rows[-1].items() if k not in ("rule_seconds", "best_so_far")}, flush=True)
     cold_config = {**config, "tuning": {**config.get("tuning", {}), "warm_start": 0}}
     cold = run_extension(workdir, cold_config, proposals, inputs, target, args.seed)
     print(f"\n{n} points added to a {len(doe)}-run DoE\n")
-    print("| DoE extension | DoE rows | in support | recommended vs truth, held-out rows | same, out of support "
-          "(held-out rows left out) | jobs rerun | wall time [s] |\n|---|---:|---:|---:|---:|---:|---:|")
+    print(
+        "| DoE extension | DoE rows | in support | recommended vs truth, held-out rows | same, out of support "
+        "(held-out rows left out) | jobs rerun | wall time [s] |\n|---|---:|---:|---:|---:|---:|---:|"
+    )
     for row in rows:
-        print(f"| {row['extension']} | {row['doe_rows']} | {row['share_in_support']:.1%} | "
-              f"{row['rmse_truth_all_heldout']:.2f} | {row['rmse_truth_out_of_support']:.2f} "
-              f"({row['n_out_of_support_heldout']:,}) | {row['jobs_rerun']} | {row['wall_seconds']:.0f} |")
+        print(
+            f"| {row['extension']} | {row['doe_rows']} | {row['share_in_support']:.1%} | "
+            f"{row['rmse_truth_all_heldout']:.2f} | {row['rmse_truth_out_of_support']:.2f} "
+            f"({row['n_out_of_support_heldout']:,}) | {row['jobs_rerun']} | {row['wall_seconds']:.0f} |"
+        )
     print("\nThe jobs that reran after adding the proposals, with their wall time [s] (benchmark files):\n")
     print("| rule | wall time [s] |\n|---|---:|")
     for rule, seconds in sorted(rows[1]["rule_seconds"].items(), key=lambda item: -item[1]):
         print(f"| {rule} | {seconds:.1f} |")
     warm = rows[1]
-    print(f"\nThe tuning study of the rerun after adding the proposals ({config.get('tuning', {}).get('n_trials', 25)} "
-          "trials, same seed), warm against cold start:\n")
-    print("| tuning study | best CV RMSE | trials to reach the cold study's best | tune_residual wall time [s] "
-          "| workflow rerun wall time [s] |\n|---|---:|---:|---:|---:|")
+    print(
+        f"\nThe tuning study of the rerun after adding the proposals ({config.get('tuning', {}).get('n_trials', 25)} "
+        "trials, same seed), warm against cold start:\n"
+    )
+    print(
+        "| tuning study | best CV RMSE | trials to reach the cold study's best | tune_residual wall time [s] "
+        "| workflow rerun wall time [s] |\n|---|---:|---:|---:|---:|"
+    )
     for name, run in (("cold (`tuning.warm_start: 0`)", cold), ("warm (the earlier study's best trials first)", warm)):
-        print(f"| {name} | {run['best_so_far'][-1]:.4f} | {trials_to_reach(run['best_so_far'], cold['best_so_far'][-1])} "
-              f"| {run['rule_seconds'].get('tune_residual', float('nan')):.1f} | {run['wall_seconds']:.0f} |")
+        print(
+            f"| {name} | {run['best_so_far'][-1]:.4f} | {trials_to_reach(run['best_so_far'], cold['best_so_far'][-1])} "
+            f"| {run['rule_seconds'].get('tune_residual', float('nan')):.1f} | {run['wall_seconds']:.0f} |"
+        )
 
 
 if __name__ == "__main__":

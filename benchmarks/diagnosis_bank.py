@@ -11,6 +11,7 @@ out-of-support error against the truth over the paper's hybrid's. Usage:
     python benchmarks/diagnosis_bank.py --generator families --scenarios 80 --seed 1
     python benchmarks/diagnosis_bank.py --generator demo --scenarios 42 --seed 1
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,16 +34,26 @@ def run(generator: str, kinds: list[str], n_scenarios: int, seed: int, n_product
         start = time.perf_counter()
         outcome = scenarios.run_scenario(kind, draw, n_production, jobs, generator=generator)
         row = {k: v for k, v in asdict(outcome).items() if k not in ("expected", "chosen")}
-        row.update(draw=draw, expected=outcome.expected.cause, correct=outcome.correct,
-                   diagnosis_ok=outcome.diagnosis_ok, gain_ok=outcome.gain_ok, no_worse=outcome.no_worse,
-                   others_found=outcome.others_found, shap_correct=outcome.shap_correct,
-                   chosen="; ".join(f"{c.cause}/{c.form}" for c in outcome.chosen),
-                   ratio_truth=outcome.rmse_oos_extended_hybrid_truth / outcome.rmse_oos_hybrid_truth,
-                   seconds_total=time.perf_counter() - start)
+        row.update(
+            draw=draw,
+            expected=outcome.expected.cause,
+            correct=outcome.correct,
+            diagnosis_ok=outcome.diagnosis_ok,
+            gain_ok=outcome.gain_ok,
+            no_worse=outcome.no_worse,
+            others_found=outcome.others_found,
+            shap_correct=outcome.shap_correct,
+            chosen="; ".join(f"{c.cause}/{c.form}" for c in outcome.chosen),
+            ratio_truth=outcome.rmse_oos_extended_hybrid_truth / outcome.rmse_oos_hybrid_truth,
+            seconds_total=time.perf_counter() - start,
+        )
         rows.append(row)
-        print(f"{index:3d} {kind:14s} correct={outcome.correct!s:5s} ok={outcome.diagnosis_ok!s:5s} "
-              f"chosen=[{row['chosen']}] shap={outcome.shap_top} ratio={row['ratio_truth']:.2f} "
-              f"(draw {draw}) | {outcome.effect}", flush=True)
+        print(
+            f"{index:3d} {kind:14s} correct={outcome.correct!s:5s} ok={outcome.diagnosis_ok!s:5s} "
+            f"chosen=[{row['chosen']}] shap={outcome.shap_top} ratio={row['ratio_truth']:.2f} "
+            f"(draw {draw}) | {outcome.effect}",
+            flush=True,
+        )
     return pd.DataFrame(rows)
 
 
@@ -50,33 +61,43 @@ def summary(table: pd.DataFrame) -> str:
     lines = []
     effects = table[table["expected"].notna()]
     nulls = table[table["expected"].isna()]
-    lines.append(f"plants: {len(table)}; top-1 cause and form family: {effects['correct'].mean():.1%} "
-                 f"({effects['correct'].sum()}/{len(effects)}); with honestly reported aliases: "
-                 f"{effects['diagnosis_ok'].sum()}/{len(effects)}; TreeSHAP top-1 column: "
-                 f"{effects['shap_correct'].sum()}/{len(effects)}")
+    lines.append(
+        f"plants: {len(table)}; top-1 cause and form family: {effects['correct'].mean():.1%} "
+        f"({effects['correct'].sum()}/{len(effects)}); with honestly reported aliases: "
+        f"{effects['diagnosis_ok'].sum()}/{len(effects)}; TreeSHAP top-1 column: "
+        f"{effects['shap_correct'].sum()}/{len(effects)}"
+    )
     lines.append(f"false discoveries on null plants: {(nulls['n_significant'] > 0).sum()}/{len(nulls)}")
     two = table[table["kind"] == "two_causes"]
     if len(two):
         lines.append(f"two-cause plants with both causes named: {(two['correct']).sum()}/{len(two)}")
     ratio = table["ratio_truth"]
-    lines.append(f"extended hybrid over the paper's hybrid, out of support, against the truth: median "
-                 f"{ratio.median():.2f}, worst {ratio.max():.2f}; at most 1.1 in {(ratio <= 1.1).sum()}/{len(ratio)}")
+    lines.append(
+        f"extended hybrid over the paper's hybrid, out of support, against the truth: median "
+        f"{ratio.median():.2f}, worst {ratio.max():.2f}; at most 1.1 in {(ratio <= 1.1).sum()}/{len(ratio)}"
+    )
     lines.append("")
     lines.append("| kind | plants | top-1 (ours) | with aliases | TreeSHAP top-1 | ratio median | ratio worst |")
     lines.append("|---|---:|---:|---:|---:|---:|---:|")
     for kind, group in table.groupby("kind", sort=False):
         shap = f"{group['shap_correct'].sum()}/{len(group)}" if group["expected"].notna().all() else "–"
-        lines.append(f"| {kind} | {len(group)} | {group['correct'].sum()}/{len(group)} | "
-                     f"{group['diagnosis_ok'].sum()}/{len(group)} | {shap} | {group['ratio_truth'].median():.2f} | "
-                     f"{group['ratio_truth'].max():.2f} |")
+        lines.append(
+            f"| {kind} | {len(group)} | {group['correct'].sum()}/{len(group)} | "
+            f"{group['diagnosis_ok'].sum()}/{len(group)} | {shap} | {group['ratio_truth'].median():.2f} | "
+            f"{group['ratio_truth'].max():.2f} |"
+        )
     misses = table[~table["correct"] | (table["ratio_truth"] > 1.1)]
     if len(misses):
         lines.append("")
         lines.append("misses (strict top-1, or ratio above 1.1):")
         for row in misses.itertuples():
-            lines.append(f"- {row.kind} (draw {row.draw}): {row.effect}; chosen [{row.chosen}]; ratio {row.ratio_truth:.2f}")
-    lines.append(f"diagnosis time: median {table['seconds_diagnosis'].median():.1f} s, "
-                 f"max {table['seconds_diagnosis'].max():.1f} s")
+            lines.append(
+                f"- {row.kind} (draw {row.draw}): {row.effect}; chosen [{row.chosen}]; ratio {row.ratio_truth:.2f}"
+            )
+    lines.append(
+        f"diagnosis time: median {table['seconds_diagnosis'].median():.1f} s, "
+        f"max {table['seconds_diagnosis'].max():.1f} s"
+    )
     return "\n".join(lines)
 
 

@@ -7,6 +7,7 @@ DoE rows added, production rows appended, a matched case added, ``tuning.n_trial
 figure setting changed, the interval level changed. Prints a Markdown table of the rules that
 would rerun, and of those that would not.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,8 +36,25 @@ def config_with(base: dict, section: str, key: str, value) -> dict:
 
 
 def planned(workdir: Path, config: Path) -> list[str]:
-    result = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
-                             "--configfile", str(config), "--cores", "2"], capture_output=True, text=True, check=True)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-n",
+            "-s",
+            str(ROOT / "Snakefile"),
+            "-d",
+            str(workdir),
+            "--configfile",
+            str(config),
+            "--cores",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     jobs = re.findall(r"^(?:local)?rule (\w+):\n(?:    .*\n)*?    output: ([^\n]*)", result.stdout, re.M)
     names = []
     for rule, outputs in jobs:
@@ -70,8 +88,12 @@ def main() -> None:
             folder = Path(scratch) / "run"
             shutil.rmtree(folder, ignore_errors=True)
             shutil.copytree(Path(args.workdir) / "results", folder / "results", symlinks=True)
-            shutil.copytree(Path(args.workdir) / ".snakemake", folder / ".snakemake", symlinks=True,
-                            ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"))
+            shutil.copytree(
+                Path(args.workdir) / ".snakemake",
+                folder / ".snakemake",
+                symlinks=True,
+                ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"),
+            )
             config = base if callable(change) else config_with(base, *change)
             (folder / "config.yaml").write_text(yaml.safe_dump(config))
             if every is None:

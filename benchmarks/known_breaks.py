@@ -4,6 +4,7 @@ Applies one break at a time to a copy of the tree and runs the fast tests (no wo
 
     python benchmarks/known_breaks.py
 """
+
 import os
 import shutil
 import subprocess
@@ -12,20 +13,46 @@ import tempfile
 from pathlib import Path
 
 BREAKS = [
- ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
- ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
- ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
- ("hybridtwin/crossval.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
- ("hybridtwin/metrics.py", "np.array_split(values, min(n_blocks, max(2, len(values) // 20)))", "np.array_split(values, len(values))"),
- ("hybridtwin/diagnosis.py", "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits", "    return fits"),
- ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
- ("hybridtwin/extension.py", "return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))", "return sum(self.contributions(frame).values(), np.zeros(len(frame)))"),
- ("hybridtwin/report.py", 'direction = "more" if offset > 0 else "less"', 'direction = "less" if offset > 0 else "more"'),
- ("hybridtwin/hybrid.py", '"pred_hybrid_gated": gated(surrogate, filtered, inside)', '"pred_hybrid_gated": surrogate + filtered'),
+    ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
+    ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
+    ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
+    ("hybridtwin/crossval.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
+    (
+        "hybridtwin/metrics.py",
+        "np.array_split(values, min(n_blocks, max(2, len(values) // 20)))",
+        "np.array_split(values, len(values))",
+    ),
+    (
+        "hybridtwin/diagnosis.py",
+        "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits",
+        "    return fits",
+    ),
+    ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
+    (
+        "hybridtwin/extension.py",
+        "return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))",
+        "return sum(self.contributions(frame).values(), np.zeros(len(frame)))",
+    ),
+    (
+        "hybridtwin/report.py",
+        'direction = "more" if offset > 0 else "less"',
+        'direction = "less" if offset > 0 else "more"',
+    ),
+    (
+        "hybridtwin/tables.py",
+        '"pred_hybrid_gated": gated(surrogate, filtered, inside)',
+        '"pred_hybrid_gated": surrogate + filtered',
+    ),
 ]
 
-FAST_TESTS = ["tests/test_units.py", "tests/test_forms.py", "tests/test_extension.py", "tests/test_diagnosis_rules.py",
-              "tests/test_report.py", "tests/test_tables.py"]
+FAST_TESTS = [
+    "tests/test_units.py",
+    "tests/test_forms.py",
+    "tests/test_extension.py",
+    "tests/test_diagnosis_rules.py",
+    "tests/test_report.py",
+    "tests/test_tables.py",
+]
 
 
 def main() -> int:
@@ -40,8 +67,13 @@ def main() -> int:
             if text.count(old) != 1:
                 raise SystemExit(f"break {number}: the line to break is no longer in {path}: {old!r}")
             target.write_text(text.replace(old, new, 1))
-            result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *FAST_TESTS],
-                                    cwd=copy, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(copy)})
+            result = subprocess.run(
+                [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *FAST_TESTS],
+                cwd=copy,
+                capture_output=True,
+                text=True,
+                env={**os.environ, "PYTHONPATH": str(copy)},
+            )
             target.write_text(text)
             failed = [line for line in result.stdout.splitlines() if line.startswith("FAILED")][:1]
             survived += result.returncode == 0

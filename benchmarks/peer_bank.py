@@ -7,6 +7,7 @@ noise-free truth on held-out parts (``scenarios.compare_models``). Usage:
 
     python benchmarks/peer_bank.py --per-family 3 --seed 1
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,8 +24,11 @@ PEERS = ("gp_discrepancy", "cokriging")
 
 def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int) -> pd.DataFrame:
     rows = []
-    plants = [("families", family, seed * 1000 + i * 100 + j) for j in range(per_family)
-              for i, family in enumerate(families.FAMILIES)]
+    plants = [
+        ("families", family, seed * 1000 + i * 100 + j)
+        for j in range(per_family)
+        for i, family in enumerate(families.FAMILIES)
+    ]
     plants += [("demo", kind, seed * 1000 + i) for i, kind in enumerate(demo_kinds)]
     for generator, kind, draw in plants:
         start = time.perf_counter()
@@ -32,30 +36,46 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int) -> pd.Data
         scored = scenarios.compare_models(case, draw, jobs)
         best_peer_out = min(scored[f"{p}_out"] for p in PEERS)
         best_peer_in = min(scored[f"{p}_in"] for p in PEERS)
-        row = {"generator": generator, "kind": kind, "draw": draw, **scored,
-               "ratio_out": scored["recommended_out"] / best_peer_out,
-               "ratio_in": scored["recommended_in"] / best_peer_in, "seconds": time.perf_counter() - start}
+        row = {
+            "generator": generator,
+            "kind": kind,
+            "draw": draw,
+            **scored,
+            "ratio_out": scored["recommended_out"] / best_peer_out,
+            "ratio_in": scored["recommended_in"] / best_peer_in,
+            "seconds": time.perf_counter() - start,
+        }
         rows.append(row)
-        print(f"{generator:8s} {kind:14s} draw {draw}: out-of-support truth-RMSE recommended "
-              f"{scored['recommended_out']:.2f}, best peer {best_peer_out:.2f} (ratio {row['ratio_out']:.2f}); "
-              f"in support ratio {row['ratio_in']:.2f} | {scored['recommended_models']} ({row['seconds']:.0f} s)",
-              flush=True)
+        print(
+            f"{generator:8s} {kind:14s} draw {draw}: out-of-support truth-RMSE recommended "
+            f"{scored['recommended_out']:.2f}, best peer {best_peer_out:.2f} (ratio {row['ratio_out']:.2f}); "
+            f"in support ratio {row['ratio_in']:.2f} | {scored['recommended_models']} ({row['seconds']:.0f} s)",
+            flush=True,
+        )
     return pd.DataFrame(rows)
 
 
 def summary(table: pd.DataFrame) -> str:
     models = scenarios.COMPARED_MODELS
-    lines = ["| plants | n | " + " | ".join(models) + " | recommended / best peer (median, worst) | in support: worst ratio |",
-             "|---|---:|" + "---:|" * len(models) + "---|---:|"]
+    lines = [
+        "| plants | n | "
+        + " | ".join(models)
+        + " | recommended / best peer (median, worst) | in support: worst ratio |",
+        "|---|---:|" + "---:|" * len(models) + "---|---:|",
+    ]
     for (generator, kind), part in table.groupby(["generator", "kind"], sort=False):
         medians = " | ".join(f"{part[f'{m}_out'].median():.2f}" for m in models)
-        lines.append(f"| {generator} {kind} | {len(part)} | {medians} | {part['ratio_out'].median():.2f}, "
-                     f"{part['ratio_out'].max():.2f} | {part['ratio_in'].max():.2f} |")
+        lines.append(
+            f"| {generator} {kind} | {len(part)} | {medians} | {part['ratio_out'].median():.2f}, "
+            f"{part['ratio_out'].max():.2f} | {part['ratio_in'].max():.2f} |"
+        )
     lines.append("")
-    lines.append(f"out of support, recommended / best peer: median {table['ratio_out'].median():.2f}, worst "
-                 f"{table['ratio_out'].max():.2f}, at most 1 in {(table['ratio_out'] <= 1).sum()}/{len(table)} plants; "
-                 f"in support: worst {table['ratio_in'].max():.2f}, within 5% in "
-                 f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}")
+    lines.append(
+        f"out of support, recommended / best peer: median {table['ratio_out'].median():.2f}, worst "
+        f"{table['ratio_out'].max():.2f}, at most 1 in {(table['ratio_out'] <= 1).sum()}/{len(table)} plants; "
+        f"in support: worst {table['ratio_in'].max():.2f}, within 5% in "
+        f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}"
+    )
     return "\n".join(lines)
 
 

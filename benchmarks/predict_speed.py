@@ -7,6 +7,7 @@ command ``hybridtwin predict NEW.csv -o OUT.csv`` in a fresh process (reading an
 checking the CSV, writing the answers). The rows are the run's production rows,
 repeated and shuffled with a fixed seed.
 """
+
 import argparse
 import subprocess
 import tempfile
@@ -44,14 +45,19 @@ def main() -> None:
         for _ in range(args.repeats):
             for flags, times in (([], command), (["--without-peers"], command_without)):
                 start = time.perf_counter()
-                subprocess.run(["hybridtwin", "predict", str(new), "--models", args.models, "-o", str(out), *flags],
-                               check=True, capture_output=True)
+                subprocess.run(
+                    ["hybridtwin", "predict", str(new), "--models", args.models, "-o", str(out), *flags],
+                    check=True,
+                    capture_output=True,
+                )
                 times.append(time.perf_counter() - start)
     print(f"{args.rows:,} rows ({answers['in_support'].mean():.0%} in support), best of {args.repeats}:")
     print("| step | wall time [s] |\n|---|---:|")
     print(f"| Predictor.load + predict (table in memory) | {min(in_memory):.2f} |")
     print(f"| the same, with_peers=False | {min(without_peers):.2f} |")
-    print(f"| hybridtwin predict NEW.csv -o OUT.csv (fresh process: imports, CSV checks, writing) | {min(command):.2f} |")
+    print(
+        f"| hybridtwin predict NEW.csv -o OUT.csv (fresh process: imports, CSV checks, writing) | {min(command):.2f} |"
+    )
     print(f"| the same, --without-peers | {min(command_without):.2f} |")
 
 

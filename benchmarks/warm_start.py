@@ -8,6 +8,7 @@ The earlier study is run on the in-support residuals of the run's first 90% of p
 number of trials with the same seed. Reports the best CV RMSE each reaches, the trials the warm
 study needs to reach the cold study's best, and their wall times.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,7 +40,11 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     config = yaml.safe_load(Path(args.config).read_text())
-    inputs, seed, folds = config["columns"]["inputs"], int(config.get("seed", 0)), int(config.get("cv", {}).get("folds", 5))
+    inputs, seed, folds = (
+        config["columns"]["inputs"],
+        int(config.get("seed", 0)),
+        int(config.get("cv", {}).get("folds", 5)),
+    )
     production = pd.read_csv(Path(args.results) / "data/production.csv")
     residuals = pd.read_csv(Path(args.results) / "residuals/production_residuals.csv")
     inside = residuals["in_support"].astype(bool).to_numpy()
@@ -49,13 +54,30 @@ def main() -> None:
     space = residual.search_space(config.get("tuning", {}).get("search_space"))
     with tempfile.TemporaryDirectory() as folder:
         warm_journal, cold_journal = str(Path(folder) / "warm.log"), str(Path(folder) / "cold.log")
-        residual.tune(X[rows["earlier"]], y[rows["earlier"]], n_trials=args.trials, n_folds=folds, seed=seed,
-                      storage=warm_journal, space=space, n_jobs=2)
+        residual.tune(
+            X[rows["earlier"]],
+            y[rows["earlier"]],
+            n_trials=args.trials,
+            n_folds=folds,
+            seed=seed,
+            storage=warm_journal,
+            space=space,
+            n_jobs=2,
+        )
         timings, studies = {}, {}
         for name, journal, warm in (("cold", cold_journal, 0), ("warm", warm_journal, args.warm)):
             start = time.perf_counter()
-            studies[name] = residual.tune(X, y, n_trials=args.trials, n_folds=folds, seed=seed, storage=journal,
-                                          space=space, n_jobs=2, warm_start=warm)
+            studies[name] = residual.tune(
+                X,
+                y,
+                n_trials=args.trials,
+                n_folds=folds,
+                seed=seed,
+                storage=journal,
+                space=space,
+                n_jobs=2,
+                warm_start=warm,
+            )
             timings[name] = time.perf_counter() - start
         cold, warm = best_so_far(studies["cold"]), best_so_far(studies["warm"])
     reached = int(np.argmax(warm <= cold[-1]) + 1) if (warm <= cold[-1]).any() else None
@@ -63,8 +85,10 @@ def main() -> None:
     print("| study on the new data | best CV RMSE | trials to reach the cold study's best | wall time [s] |")
     print("|---|---:|---:|---:|")
     print(f"| cold (empty journal) | {cold[-1]:.4f} | {int(np.argmax(cold <= cold[-1]) + 1)} | {timings['cold']:.0f} |")
-    print(f"| warm (earlier study's best {args.warm} first) | {warm[-1]:.4f} | {reached if reached else 'not reached'} "
-          f"| {timings['warm']:.0f} |")
+    print(
+        f"| warm (earlier study's best {args.warm} first) | {warm[-1]:.4f} | {reached if reached else 'not reached'} "
+        f"| {timings['warm']:.0f} |"
+    )
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Per-rule cost of a finished run, from Snakemake's benchmark files, as a Markdown table.
 
-    snakemake --cores 2 && python benchmarks/workflow_timing.py results/benchmarks
+snakemake --cores 2 && python benchmarks/workflow_timing.py results/benchmarks
 """
+
 import sys
 from pathlib import Path
 

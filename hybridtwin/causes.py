@@ -7,6 +7,7 @@ differently. A timestamp column is a cause in elapsed hours since a fixed origin
 (the earliest stamp of the rows it was chosen on), so new rows are read on the same
 clock.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -6,6 +6,7 @@
 The CSV is read with the run's conventions (csv.sep, csv.decimal, column names)
 and the same checks; bad input ends with the workflow's message and exit status 1.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,34 +32,51 @@ def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:
         try:
             values[name.strip()] = float(number)
         except ValueError:
-            hint = (" (the run's decimal mark is '.': write 0.75, without digit grouping)" if "," in value
-                    else "")
+            hint = " (the run's decimal mark is '.': write 0.75, without digit grouping)" if "," in value else ""
             raise InputError(f"--set {pair!r}: value {value!r} of {name.strip()!r} is not a number{hint}") from None
     unknown = [name for name in values if name not in predictor.inputs]
     missing = [name for name in predictor.inputs if name not in values]
     if unknown or missing:
-        raise InputError("--set: " + "; ".join(
-            part for part in (f"unknown input(s) {', '.join(map(repr, unknown))}" if unknown else "",
-                              f"missing input(s) {', '.join(map(repr, missing))}" if missing else "") if part)
-            + f". The models take {', '.join(predictor.inputs)}")
+        raise InputError(
+            "--set: "
+            + "; ".join(
+                part
+                for part in (
+                    f"unknown input(s) {', '.join(map(repr, unknown))}" if unknown else "",
+                    f"missing input(s) {', '.join(map(repr, missing))}" if missing else "",
+                )
+                if part
+            )
+            + f". The models take {', '.join(predictor.inputs)}"
+        )
     return pd.DataFrame([values])
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hybridtwin", description=__doc__.split("\n\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
-    predict = commands.add_parser("predict", help="predict draw-in for new settings, with an interval and the "
-                                  "in/out-of-domain verdict")
+    predict = commands.add_parser(
+        "predict", help="predict draw-in for new settings, with an interval and the in/out-of-domain verdict"
+    )
     predict.add_argument("csv", nargs="?", help="CSV of settings, one row each (the run's input column names)")
-    predict.add_argument("--models", default="results/models", help="a workflow run's models folder "
-                         "(default: results/models)")
+    predict.add_argument(
+        "--models", default="results/models", help="a workflow run's models folder (default: results/models)"
+    )
     predict.add_argument("-o", "--output", help="CSV to write (default: print to the screen)")
     predict.add_argument("--level", type=float, help="interval level, for example 0.9 (default: the run's)")
-    predict.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                         help="one setting for a one-off question, instead of a CSV (repeat for each input)")
-    predict.add_argument("--without-peers", action="store_true",
-                         help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
-                              "a region's best model, the next one is recommended)")
+    predict.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="one setting for a one-off question, instead of a CSV (repeat for each input)",
+    )
+    predict.add_argument(
+        "--without-peers",
+        action="store_true",
+        help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
+        "a region's best model, the next one is recommended)",
+    )
     predict.add_argument("--sep", choices=list(SEPARATORS), help="CSV separator, if not the run's csv.sep")
     predict.add_argument("--decimal", choices=[".", ","], help="decimal mark, if not the run's csv.decimal")
     return parser
@@ -66,7 +84,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def predict(args) -> None:
     predictor = Predictor.load(args.models)
-    fmt = CsvFormat.from_config({"sep": args.sep or predictor.csv.sep, "decimal": args.decimal or predictor.csv.decimal})
+    fmt = CsvFormat.from_config(
+        {"sep": args.sep or predictor.csv.sep, "decimal": args.decimal or predictor.csv.decimal}
+    )
     if bool(args.csv) == bool(args.set):
         raise InputError("give either a CSV file of settings or --set NAME=VALUE for every input, not both")
     frame = predictor.read(args.csv, fmt) if args.csv else _settings(args.set, predictor)

@@ -6,6 +6,7 @@ tests read the same file. A bad value stops with one plain line that names the k
 value and the rule it breaks, for example ``config error: tuning.n_trials = 0, must be
 at least 1``, instead of a dump of the validator's state.
 """
+
 from __future__ import annotations
 
 import copy
@@ -20,8 +21,14 @@ from .data import InputError, other_csvs
 
 SCHEMA_PATH = Path(__file__).with_name("config.schema.yaml")
 
-TYPE_WORDS = {"integer": "a whole number", "number": "a number", "string": "text", "array": "a list",
-              "object": "a mapping of keys to values", "boolean": "true or false"}
+TYPE_WORDS = {
+    "integer": "a whole number",
+    "number": "a number",
+    "string": "text",
+    "array": "a list",
+    "object": "a mapping of keys to values",
+    "boolean": "true or false",
+}
 
 
 class ConfigError(InputError):

@@ -1,4 +1,5 @@
 """K-fold cross-validation shared by the surrogate, the residual model and the diagnosis."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -29,8 +30,9 @@ def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) ->
     for fold, (train, test) in enumerate(folds(len(y), n_folds, seed), start=1):
         model = clone(estimator).fit(X[train], y[train])
         oof[test] = model.predict(X[test])
-        rows.append({"fold": fold, "n_train": len(train), "n_test": len(test),
-                     **scores(y[test], oof[test], names=CV_METRICS)})
+        rows.append(
+            {"fold": fold, "n_train": len(train), "n_test": len(test), **scores(y[test], oof[test], names=CV_METRICS)}
+        )
         if after_fold is not None:
             after_fold(rows)
     return pd.DataFrame(rows), oof

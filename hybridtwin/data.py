@@ -11,6 +11,7 @@ and the run goes on. Input files are only read.
 
 ``tests/test_bad_inputs.py`` holds a corpus of broken inputs and the messages they give.
 """
+
 from __future__ import annotations
 
 import csv
@@ -46,8 +47,9 @@ class Columns:
     @classmethod
     def from_config(cls, columns: dict) -> "Columns":
         """From the checked config (types, empty and repeated names are the schema's checks)."""
-        names = cls(tuple(columns["inputs"]), columns["target"], columns["matched_simulated"],
-                    columns["matched_measured"])
+        names = cls(
+            tuple(columns["inputs"]), columns["target"], columns["matched_simulated"], columns["matched_measured"]
+        )
         names.check()
         return names
 
@@ -56,11 +58,14 @@ class Columns:
         for key in ("target", "matched_simulated", "matched_measured"):
             value = getattr(self, key)
             if value in self.inputs:
-                raise InputError(f"config columns.{key} {value!r} is also listed in columns.inputs: "
-                                 "a target cannot be an input")
+                raise InputError(
+                    f"config columns.{key} {value!r} is also listed in columns.inputs: a target cannot be an input"
+                )
         if self.matched_simulated == self.matched_measured:
-            raise InputError(f"config columns.matched_simulated and columns.matched_measured are both "
-                             f"{self.matched_simulated!r}: name the simulated and the measured column")
+            raise InputError(
+                f"config columns.matched_simulated and columns.matched_measured are both "
+                f"{self.matched_simulated!r}: name the simulated and the measured column"
+            )
 
 
 @dataclass(frozen=True)
@@ -103,18 +108,24 @@ def other_csvs(path: Path) -> str:
 def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:
     """The file's text; stop on workbooks, binary content and text that is not UTF-8."""
     if raw.startswith(b"PK\x03\x04"):
-        raise InputError(f"{where} is an Excel workbook (.xlsx) or another zip archive, not a CSV text file: "
-                         "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'")
+        raise InputError(
+            f"{where} is an Excel workbook (.xlsx) or another zip archive, not a CSV text file: "
+            "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'"
+        )
     if raw.startswith(b"\xd0\xcf\x11\xe0"):
-        raise InputError(f"{where} is an old Excel workbook (.xls), not a CSV text file: "
-                         "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'")
+        raise InputError(
+            f"{where} is an old Excel workbook (.xls), not a CSV text file: "
+            "open it in Excel and save it as 'CSV UTF-8 (comma delimited)'"
+        )
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise InputError(f"{where} is UTF-16 text (Excel's 'Unicode Text'), not UTF-8: save it as 'CSV UTF-8'")
     nul = raw.find(b"\x00")
     if nul >= 0:
         line = raw.count(b"\n", 0, nul) + 1
-        raise InputError(f"{where} is binary, not a CSV text file: NUL byte at offset {nul} (line {line}); "
-                         "export the table as 'CSV UTF-8'")
+        raise InputError(
+            f"{where} is binary, not a CSV text file: NUL byte at offset {nul} (line {line}); "
+            "export the table as 'CSV UTF-8'"
+        )
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as error:
@@ -122,19 +133,21 @@ def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:
         line = raw.count(b"\n", 0, at) + 1
         place = "the header (line 1)" if line == 1 else _line(line - 2)
         char = bytes([raw[at]]).decode("cp1252", errors="replace")
-        raise InputError(f"{where} is not UTF-8 text: byte 0x{raw[at]:02x} ({char!r} in Latin-1/Windows-1252) in "
-                         f"{place}{_column_at(raw, at, fmt)}, offset {at}; save the file as 'CSV UTF-8', or "
-                         "convert it from Latin-1/Windows-1252 (e.g. iconv -f WINDOWS-1252 -t UTF-8)") from None
+        raise InputError(
+            f"{where} is not UTF-8 text: byte 0x{raw[at]:02x} ({char!r} in Latin-1/Windows-1252) in "
+            f"{place}{_column_at(raw, at, fmt)}, offset {at}; save the file as 'CSV UTF-8', or "
+            "convert it from Latin-1/Windows-1252 (e.g. iconv -f WINDOWS-1252 -t UTF-8)"
+        ) from None
 
 
 def _column_at(raw: bytes, at: int, fmt: CsvFormat) -> str:
     """', column NAME' for the byte offset ``at`` (read as Latin-1, which never fails), or ''."""
     try:
-        header = next(csv.reader([raw[:raw.find(b"\n")].decode("latin-1")], delimiter=fmt.sep))
+        header = next(csv.reader([raw[: raw.find(b"\n")].decode("latin-1")], delimiter=fmt.sep))
         start = raw.rfind(b"\n", 0, at) + 1
         if start == 0:
             return ""
-        fields = next(csv.reader([raw[start:at + 1].decode("latin-1")], delimiter=fmt.sep))
+        fields = next(csv.reader([raw[start : at + 1].decode("latin-1")], delimiter=fmt.sep))
     except (csv.Error, StopIteration):
         return ""
     index = len(fields) - 1
@@ -158,12 +171,19 @@ def _ragged_hint(header: list[str], fields: list[str], fmt: CsvFormat) -> str:
     if hint:
         return hint
     cells = [field.strip() for field in fields]
-    if (fmt.sep == "," and sum(bool(re.fullmatch(r"[-+]?\d+", cell)) for cell in cells) >= 2
-            and not any(re.fullmatch(r"[-+]?\d*\.\d+([eE][-+]?\d+)?", cell) for cell in cells)):
-        return (" — this looks like a decimal comma in a comma-separated file: each number splits in two at its "
-                "comma. Export with csv.sep: ';' and csv.decimal: ',' (the European Excel CSV), or quote the values")
-    return (f" — a stray {SEPARATORS.get(fmt.sep, repr(fmt.sep))} at the end of the line, or a text value "
-            "holding the separator that is not quoted?")
+    if (
+        fmt.sep == ","
+        and sum(bool(re.fullmatch(r"[-+]?\d+", cell)) for cell in cells) >= 2
+        and not any(re.fullmatch(r"[-+]?\d*\.\d+([eE][-+]?\d+)?", cell) for cell in cells)
+    ):
+        return (
+            " — this looks like a decimal comma in a comma-separated file: each number splits in two at its "
+            "comma. Export with csv.sep: ';' and csv.decimal: ',' (the European Excel CSV), or quote the values"
+        )
+    return (
+        f" — a stray {SEPARATORS.get(fmt.sep, repr(fmt.sep))} at the end of the line, or a text value "
+        "holding the separator that is not quoted?"
+    )
 
 
 def _config_entry(role: str) -> str:
@@ -199,8 +219,9 @@ def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.Da
     header = [name.strip() or f"Unnamed: {i}" for i, name in enumerate(rows[0])]
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
-        raise InputError(f"{where} has duplicated column names: {', '.join(map(repr, duplicated))}; "
-                         "every column needs its own name")
+        raise InputError(
+            f"{where} has duplicated column names: {', '.join(map(repr, duplicated))}; every column needs its own name"
+        )
     body = rows[1:]
     if not body:
         raise InputError(f"{where} has a header and no rows")
@@ -212,8 +233,10 @@ def read_csv(path: str | Path, role: str, fmt: CsvFormat = CsvFormat()) -> pd.Da
             continue
         if len(fields) > width:
             if any(field.strip() for field in fields[width:]):
-                raise InputError(f"{where}, {_line(index)}: {len(fields)} fields, but the header has {width} "
-                                 f"column{'s' if width > 1 else ''}{_ragged_hint(header, fields, fmt)}")
+                raise InputError(
+                    f"{where}, {_line(index)}: {len(fields)} fields, but the header has {width} "
+                    f"column{'s' if width > 1 else ''}{_ragged_hint(header, fields, fmt)}"
+                )
             del fields[width:]
         elif len(fields) < width:
             fields.extend([""] * (width - len(fields)))
@@ -252,8 +275,9 @@ def _is_number(value: str) -> bool:
     return True
 
 
-def numeric_column(frame: pd.DataFrame, column: str, where: str, fmt: CsvFormat,
-                   allow_missing: bool = False) -> pd.Series:
+def numeric_column(
+    frame: pd.DataFrame, column: str, where: str, fmt: CsvFormat, allow_missing: bool = False
+) -> pd.Series:
     """Column as float; stop at the first cell that is missing, not a number, or infinite.
 
     Missing means an empty cell or a text such as 'NaN', 'nan', 'NA', 'null' (with
@@ -275,8 +299,11 @@ def numeric_column(frame: pd.DataFrame, column: str, where: str, fmt: CsvFormat,
         return values
     row = int(np.flatnonzero(bad)[0])
     value = text.iloc[row]
-    counts = [f"{int(mask.sum())} {label} cell(s)" for mask, label in
-              ((missing, "missing"), (not_number, "non-numeric"), (infinite, "infinite")) if mask.any()]
+    counts = [
+        f"{int(mask.sum())} {label} cell(s)"
+        for mask, label in ((missing, "missing"), (not_number, "non-numeric"), (infinite, "infinite"))
+        if mask.any()
+    ]
     label = frame.index[row]  # read_csv's frames are indexed by the row's place in the file
     place = f"{where}, column {column!r}, {_line(int(label) if isinstance(label, (int, np.integer)) else row)}"
     tally = f" (this column has {', '.join(counts)})"
@@ -296,8 +323,9 @@ def _squash(name: str) -> str:
     return re.sub(r"[^0-9a-z]", "", str(name).lower())
 
 
-def require_columns(frame: pd.DataFrame, columns, where: str, config_key: str | dict,
-                    fmt: CsvFormat = CsvFormat()) -> None:
+def require_columns(
+    frame: pd.DataFrame, columns, where: str, config_key: str | dict, fmt: CsvFormat = CsvFormat()
+) -> None:
     """Stop when a configured column is absent; name near misses and a wrong separator.
 
     ``config_key`` is the config entry naming the columns, or a mapping column -> entry.
@@ -339,8 +367,14 @@ def _config_keys(columns: Columns, *keys: str) -> dict[str, str]:
     return names
 
 
-def load_doe(path, columns: Columns, fmt: CsvFormat = CsvFormat(), min_rows: int = 2,
-             folds: int | None = None, k: int | None = None) -> pd.DataFrame:
+def load_doe(
+    path,
+    columns: Columns,
+    fmt: CsvFormat = CsvFormat(),
+    min_rows: int = 2,
+    folds: int | None = None,
+    k: int | None = None,
+) -> pd.DataFrame:
     doe = load_table(path, "doe", [*columns.inputs, columns.target], fmt, _config_keys(columns, "target"))
     where = f"doe file {str(path)!r}"
     needs = []
@@ -351,30 +385,32 @@ def load_doe(path, columns: Columns, fmt: CsvFormat = CsvFormat(), min_rows: int
     if not needs and len(doe) < min_rows:
         needs.append(f"at least {min_rows} are needed")
     if needs:
-        raise InputError(f"{where} has {len(doe)} data rows, too few: {'; '.join(needs)}. "
-                         "Add DoE runs, or lower cv.folds / gate.k in the config")
+        raise InputError(
+            f"{where} has {len(doe)} data rows, too few: {'; '.join(needs)}. "
+            "Add DoE runs, or lower cv.folds / gate.k in the config"
+        )
     spread = doe[list(columns.inputs)].std(ddof=1)
     constant = [name for name in columns.inputs if not spread[name] > 0]
     if constant:
         values = ", ".join(f"{name!r} (every row is {doe[name].iloc[0]:g})" for name in constant)
         one = len(constant) == 1
-        raise InputError(f"{where}: input column{'' if one else 's'} {values} {'is' if one else 'are'} constant "
-                         f"over the DoE (standard deviation 0), so {'it' if one else 'they'} cannot be standardized; "
-                         f"drop {'it' if one else 'them'} from columns.inputs, or use a DoE that varies "
-                         f"{'it' if one else 'them'}")
+        raise InputError(
+            f"{where}: input column{'' if one else 's'} {values} {'is' if one else 'are'} constant "
+            f"over the DoE (standard deviation 0), so {'it' if one else 'they'} cannot be standardized; "
+            f"drop {'it' if one else 'them'} from columns.inputs, or use a DoE that varies "
+            f"{'it' if one else 'them'}"
+        )
     return doe
 
 
 def load_production(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
-    production = load_table(path, "production", [*columns.inputs, columns.target], fmt,
-                            _config_keys(columns, "target"))
+    production = load_table(path, "production", [*columns.inputs, columns.target], fmt, _config_keys(columns, "target"))
     return _numeric_extras(production, [*columns.inputs, columns.target], fmt)
 
 
 def load_matched(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     numeric = [*columns.inputs, columns.matched_simulated, columns.matched_measured]
-    matched = load_table(path, "matched", numeric, fmt,
-                         _config_keys(columns, "matched_simulated", "matched_measured"))
+    matched = load_table(path, "matched", numeric, fmt, _config_keys(columns, "matched_simulated", "matched_measured"))
     return _numeric_extras(matched, numeric, fmt)
 
 
@@ -411,11 +447,18 @@ def range_report(reference: pd.DataFrame, frame: pd.DataFrame, inputs) -> pd.Dat
         above = max(0.0, float(values.max()) - high)
         outside = float(np.mean((values < low) | (values > high)))
         typical = float(np.median(np.abs(reference[name].to_numpy(float))))
-        rows.append({"column": name, "doe_min": low, "doe_max": high,
-                     "min": float(values.min()), "max": float(values.max()),
-                     "share_outside": outside,
-                     "beyond_range_in_spans": max(below, above) / span if span > 0 else math.inf,
-                     "scale": float(np.median(np.abs(values))) / typical if typical > 0 else math.nan})
+        rows.append(
+            {
+                "column": name,
+                "doe_min": low,
+                "doe_max": high,
+                "min": float(values.min()),
+                "max": float(values.max()),
+                "share_outside": outside,
+                "beyond_range_in_spans": max(below, above) / span if span > 0 else math.inf,
+                "scale": float(np.median(np.abs(values))) / typical if typical > 0 else math.nan,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -425,7 +468,7 @@ def _unit_hint(scale: float) -> str:
         return ""
     factor = scale if scale > 1 else 1 / scale
     exponent = round(math.log10(factor))
-    shown = str(10 ** exponent) if abs(math.log10(factor) - exponent) < 0.1 else f"{factor:.3g}"
+    shown = str(10**exponent) if abs(math.log10(factor) - exponent) < 0.1 else f"{factor:.3g}"
     times = f"about {shown} times the DoE values" if scale > 1 else f"about 1/{shown} of the DoE values"
     return f" — {times}: a unit mix-up (mm vs µm or m, kN vs N, MPa vs Pa, °C vs K)?"
 
@@ -436,9 +479,11 @@ def describe_out_of_range(report: pd.DataFrame, limit: float = 0.0) -> str:
     for row in report.itertuples():
         if row.beyond_range_in_spans > limit:
             scale = getattr(row, "scale", math.nan)
-            lines.append(f"  {row.column}: data {row.min:.4g}..{row.max:.4g}, "
-                         f"DoE {row.doe_min:.4g}..{row.doe_max:.4g}, {row.share_outside:.0%} of rows outside, "
-                         f"up to {row.beyond_range_in_spans:.2f} DoE spans beyond{_unit_hint(scale)}")
+            lines.append(
+                f"  {row.column}: data {row.min:.4g}..{row.max:.4g}, "
+                f"DoE {row.doe_min:.4g}..{row.doe_max:.4g}, {row.share_outside:.0%} of rows outside, "
+                f"up to {row.beyond_range_in_spans:.2f} DoE spans beyond{_unit_hint(scale)}"
+            )
     return "\n".join(lines)
 
 
@@ -460,7 +505,9 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     columns = Columns.from_config(config["columns"])
     fmt = CsvFormat.from_config(config["csv"])
     paths = config["data"]
-    needed = set(roles) | ({"doe"} if "production" in roles else set()) | ({"production"} if "matched" in roles else set())
+    needed = (
+        set(roles) | ({"doe"} if "production" in roles else set()) | ({"production"} if "matched" in roles else set())
+    )
     frames = {}
     if "doe" in needed:
         frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=config["cv"]["folds"], k=config["gate"]["k"])
@@ -472,13 +519,16 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     if "production" in roles:
         far = describe_out_of_range(range_report(frames["doe"], frames["production"], columns.inputs), limit=0.5)
         if far:
-            warn(f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
-                 f"(more than half a DoE span):\n{far}")
+            warn(
+                f"production file {str(paths['production'])!r}: columns lie far outside the DoE ranges "
+                f"(more than half a DoE span):\n{far}"
+            )
     return {role: frames[role] for role in roles}
 
 
-def check_support(production_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict,
-                  threshold: float) -> None:
+def check_support(
+    production_in: np.ndarray, doe: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict, threshold: float
+) -> None:
     """Stop when no production row is in support."""
     production_in = np.asarray(production_in, bool)
     if not production_in.any():
@@ -486,10 +536,14 @@ def check_support(production_in: np.ndarray, doe: pd.DataFrame, production: pd.D
         raise InputError(
             f"production file {str(paths['production'])!r}: no row lies inside the DoE support "
             f"(kNN distance threshold {threshold:.3g} in DoE-standardized units), so no residual can be learned."
-            + (f" Columns outside the DoE ranges:\n{report}" if report else
-               " Every column is inside the DoE ranges, but the combinations are far from every DoE point.")
+            + (
+                f" Columns outside the DoE ranges:\n{report}"
+                if report
+                else " Every column is inside the DoE ranges, but the combinations are far from every DoE point."
+            )
             + "\nCheck the units and the column mapping (columns.inputs), or enrich the DoE towards the "
-              "production window.")
+            "production window."
+        )
 
 
 def warn_matched_outside(matched_in: np.ndarray, paths: dict) -> None:
@@ -497,9 +551,11 @@ def warn_matched_outside(matched_in: np.ndarray, paths: dict) -> None:
     matched_in = np.asarray(matched_in, bool)
     if not matched_in.all():
         outside = np.flatnonzero(~matched_in)
-        warn(f"matched file {str(paths['matched'])!r}: {len(outside)} of {len(matched_in)} matched case(s) lie "
-             f"outside the DoE support ({', '.join(_line(int(i)) for i in outside)}); the gated hybrid reverts to "
-             "the surrogate there")
+        warn(
+            f"matched file {str(paths['matched'])!r}: {len(outside)} of {len(matched_in)} matched case(s) lie "
+            f"outside the DoE support ({', '.join(_line(int(i)) for i in outside)}); the gated hybrid reverts to "
+            "the surrogate there"
+        )
 
 
 def warn_matched_in_production(matched: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict) -> None:
@@ -508,6 +564,8 @@ def warn_matched_in_production(matched: pd.DataFrame, production: pd.DataFrame, 
     shared = matched[inputs].reset_index().merge(production[inputs], on=inputs, how="inner")["index"].unique()
     if len(shared):
         rows = ", ".join(_line(int(i)) for i in sorted(shared))
-        warn(f"matched file {paths['matched']!r}: {len(shared)} matched case(s) ({rows}) also stand in the production "
-             f"file {paths['production']!r} with the same inputs; the residual model trains on those production rows, "
-             "so the matched check is not external for them: remove them from the production file")
+        warn(
+            f"matched file {paths['matched']!r}: {len(shared)} matched case(s) ({rows}) also stand in the production "
+            f"file {paths['production']!r} with the same inputs; the residual model trains on those production rows, "
+            "so the matched check is not external for them: remove them from the production file"
+        )

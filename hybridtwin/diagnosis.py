@@ -13,6 +13,7 @@ consecutive rows, robust to drift and autocorrelation; Bonferroni over the
 candidates) and its effect is larger than the surrogate's own uncertainty,
 which is also in the residual.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -168,7 +169,10 @@ class Diagnosis:
 
 # ---------------------------------------------------------------- candidates
 
-def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -> tuple[list[Candidate], dict[str, str]]:
+
+def build_candidates(
+    frame: pd.DataFrame, inputs, exclude, settings: Settings
+) -> tuple[list[Candidate], dict[str, str]]:
     """Candidate causes from every usable column, and the reasons others were skipped."""
     candidates, skipped = [], {}
     for column in frame.columns:
@@ -195,12 +199,16 @@ def build_candidates(frame: pd.DataFrame, inputs, exclude, settings: Settings) -
     if settings.interactions:
         numeric_inputs = [c for c in candidates if c.kind == "input"]
         for a, b in itertools.combinations(numeric_inputs, 2):
-            candidates.append(Candidate.new(f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]),
-                                            (a.name, b.name)))
+            candidates.append(
+                Candidate.new(
+                    f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]), (a.name, b.name)
+                )
+            )
     return candidates, skipped
 
 
 # ---------------------------------------------------------------- fitting
+
 
 def held_out(name: str, x, y, splits) -> np.ndarray:
     oof = np.empty(len(y))
@@ -241,8 +249,10 @@ def fold_sets(candidate: Candidate, settings: Settings) -> list[list[tuple[np.nd
     """
     if candidate.kind != "interaction":
         return [value_folds(candidate, settings)]
-    return [value_folds(Candidate.new(column, "input", candidate.values[:, j], (column,)), settings)
-            for j, column in enumerate(candidate.columns)]
+    return [
+        value_folds(Candidate.new(column, "input", candidate.values[:, j], (column,)), settings)
+        for j, column in enumerate(candidate.columns)
+    ]
 
 
 def held_out_worst(name: str, candidate: Candidate, y, settings: Settings) -> np.ndarray:
@@ -269,8 +279,19 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
         cv_mse = float(np.mean((y - oof) ** 2))
         score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n) - n * np.log(max(null_mse, 1e-300))
         fitted = full.predict(candidate.values)
-        fits.append(Fit(candidate, full, oof, cv_mse, null_mse, float(score), block_p_value(y, oof, settings.n_blocks),
-                        float(np.ptp(fitted)), float(np.std(fitted))))
+        fits.append(
+            Fit(
+                candidate,
+                full,
+                oof,
+                cv_mse,
+                null_mse,
+                float(score),
+                block_p_value(y, oof, settings.n_blocks),
+                float(np.ptp(fitted)),
+                float(np.std(fitted)),
+            )
+        )
     fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
     fits = _unseen_saturation_last(_named_form_first(fits, min_effect), min_effect, candidate)
     best = fits[0]
@@ -291,8 +312,9 @@ def _unseen_saturation_last(fits: list[Fit], min_effect: float, candidate: Candi
         return fits
     if forms.SIGMOID_SPAN * first.form.width <= float(np.ptp(candidate.values)):
         return fits
-    simpler = [fit for fit in fits[1:] if fit.form.n_params < first.form.n_params
-               and predicts_the_same(fit, first, min_effect)]
+    simpler = [
+        fit for fit in fits[1:] if fit.form.n_params < first.form.n_params and predicts_the_same(fit, first, min_effect)
+    ]
     if not simpler:
         return fits
     choice = min(simpler, key=lambda fit: (fit.form.n_params, fit.score))
@@ -310,15 +332,17 @@ def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:
         return fits
     for index, fit in enumerate(fits[1:], start=1):
         if predicts_the_same(fit, fits[0], min_effect):
-            return [fit] + fits[:index] + fits[index + 1:]
+            return [fit] + fits[:index] + fits[index + 1 :]
     return fits
 
 
 def predicts_the_same(fit: Fit, reference: Fit, min_effect: float) -> bool:
     """Whether ``fit`` explains about as much as ``reference`` and predicts it within ``min_effect`` (std)."""
     difference = fit.form.predict(fit.candidate.values) - reference.form.predict(reference.candidate.values)
-    return (fit.explained_share >= reference.explained_share - share_tolerance(reference, min_effect)
-            and float(np.std(difference)) < min_effect)
+    return (
+        fit.explained_share >= reference.explained_share - share_tolerance(reference, min_effect)
+        and float(np.std(difference)) < min_effect
+    )
 
 
 def share_tolerance(fit: Fit, min_effect: float) -> float:
@@ -353,6 +377,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y,
     instead. A drift that goes on while the line stands idle is time's, not the stroke
     counter's, however alike the two are over the parts.
     """
+
     def equivalent(alt: Fit) -> bool:
         return acceptable(alt) and predicts_the_same(alt, best, min_effect)
 
@@ -426,10 +451,12 @@ def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, floa
     """
     if best.candidate.kind != "group":
         return best, 0.0
-    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool
-              if fit.candidate.kind != "group" and acceptable(fit)]
-    rivals = [(fit, share) for fit, share in rivals
-              if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE)]
+    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool if fit.candidate.kind != "group" and acceptable(fit)]
+    rivals = [
+        (fit, share)
+        for fit, share in rivals
+        if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE)
+    ]
     if not rivals:
         return best, 0.0
     return min(rivals, key=lambda rival: (rival[0].score, rival[0].candidate.name))
@@ -450,14 +477,20 @@ def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: floa
 def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float) -> bool:
     # a pair counts as an interaction only where the product beats its two main effects;
     # otherwise its columns speak for themselves as candidates of their own
-    return (fit.p_value < settings.alpha / max(1, n_tests) and fit.score < 0
-            and fit.effect_std > min_effect and fit.form.name != forms.Additive.name)
+    return (
+        fit.p_value < settings.alpha / max(1, n_tests)
+        and fit.score < 0
+        and fit.effect_std > min_effect
+        and fit.form.name != forms.Additive.name
+    )
 
 
 # ---------------------------------------------------------------- diagnosis
 
-def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
-             surrogate_std: float = 0.0) -> Diagnosis:
+
+def diagnose(
+    frame: pd.DataFrame, residual, inputs, exclude, settings: Settings, surrogate_std: float = 0.0
+) -> Diagnosis:
     """Rank candidate causes of ``residual`` (approximate residuals of in-support rows, in row order).
 
     ``frame`` holds those rows' production columns; ``exclude`` names columns that
@@ -486,6 +519,7 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
     proxies: dict[str, tuple[str, float]] = {}  # id -> the cause named for it, and the share of its level differences
     conditional: dict[str, Fit] = dict(marginal)
     remaining = y
+
     def acceptable(fit: Fit) -> bool:
         return is_significant(fit, n_tests, settings, min_effect)
 
@@ -496,18 +530,28 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         selected[:] = [dataclasses.replace(fit, form=model) for fit, model in zip(selected, models)]
         left = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
         chosen = {s.candidate.name for s in selected}
-        return left - left.mean(), fit_all([c for c in candidates if c.name not in chosen], left - left.mean(),
-                                           settings, min_effect)
+        return left - left.mean(), fit_all(
+            [c for c in candidates if c.name not in chosen], left - left.mean(), settings, min_effect
+        )
 
     def forward() -> None:
         nonlocal remaining, conditional
         while len(selected) < settings.max_causes:
-            pool = [fit for name, fit in conditional.items() if name not in {s.candidate.name for s in selected}
-                    and fit.form.name != forms.Additive.name]  # a pair that is no interaction is not a candidate
+            pool = [
+                fit
+                for name, fit in conditional.items()
+                if name not in {s.candidate.name for s in selected} and fit.form.name != forms.Additive.name
+            ]  # a pair that is no interaction is not a candidate
             if not pool:
                 break
-            best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, min_effect,
-                                  acceptable, remaining, settings)
+            best = prefer_simpler(
+                min(pool, key=lambda fit: (fit.score, fit.candidate.name)),
+                pool,
+                min_effect,
+                acceptable,
+                remaining,
+                settings,
+            )
             named, share = physical_cause(best, pool, remaining, acceptable)
             if named is not best:
                 proxies[best.candidate.name] = (named.candidate.name, share)
@@ -530,10 +574,25 @@ def diagnose(frame: pd.DataFrame, residual, inputs, exclude, settings: Settings,
         proxies = {key: value for key, value in proxies.items() if value[0] in named}
 
     aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
-    table = _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
-                   min_effect)
-    return Diagnosis(offset, offset_se, len(y), float(y.std()), surrogate_std, min_effect, table, y,
-                     {c.name: c for c in candidates}, skipped, selected, aliases, explained_by, proxies)
+    table = _table(
+        marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings, min_effect
+    )
+    return Diagnosis(
+        offset,
+        offset_se,
+        len(y),
+        float(y.std()),
+        surrogate_std,
+        min_effect,
+        table,
+        y,
+        {c.name: c for c in candidates},
+        skipped,
+        selected,
+        aliases,
+        explained_by,
+        proxies,
+    )
 
 
 def joint_share(fits: list[Fit], y, settings: Settings) -> float:
@@ -541,13 +600,15 @@ def joint_share(fits: list[Fit], y, settings: Settings) -> float:
     oof = np.zeros_like(y)
     for train, test in kfolds(len(y), settings.folds, settings.seed):
         models, means = forms.backfit([f.candidate.values[train] for f in fits], [f.form.name for f in fits], y[train])
-        oof[test] = y[train].mean() + sum(m.predict(f.candidate.values[test]) - c
-                                          for m, f, c in zip(models, fits, means))
+        oof[test] = y[train].mean() + sum(
+            m.predict(f.candidate.values[test]) - c for m, f, c in zip(models, fits, means)
+        )
     return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
 
 
-def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float,
-            acceptable) -> bool:
+def _refine(
+    selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float, acceptable
+) -> bool:
     """Choose each chosen cause's form again given all the others; returns whether anything changed.
 
     Chosen one at a time, a cause is fitted with the causes after it still in the
@@ -565,31 +626,39 @@ def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Set
     return changed
 
 
-def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float,
-                 acceptable) -> bool:
+def _refine_pass(
+    selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float, acceptable
+) -> bool:
     changed = False
     for j, fit in enumerate(list(selected)):
         # the partial residual of cause j: y less the other causes' terms of the joint fit
         models, means = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
-        rest = y - sum(m.predict(s.candidate.values) - c
-                       for k, (m, s, c) in enumerate(zip(models, selected, means)) if k != j)
+        rest = y - sum(
+            m.predict(s.candidate.values) - c for k, (m, s, c) in enumerate(zip(models, selected, means)) if k != j
+        )
         rest = rest - rest.mean()
         if fit.candidate.kind != "interaction":
             again = best_fit(fit.candidate, rest, settings, min_effect)
             if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
                 chosen = {s.candidate.name for s in selected}
-                pool = [again] + [best_fit(c, rest, settings, min_effect) for c in by_name.values()
-                                  if c.kind in ("input", "log") and c.name not in chosen]
+                pool = [again] + [
+                    best_fit(c, rest, settings, min_effect)
+                    for c in by_name.values()
+                    if c.kind in ("input", "log") and c.name not in chosen
+                ]
                 again = prefer_simpler(again, pool, min_effect, acceptable, rest, settings)
             if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and acceptable(again):
                 selected[j] = again
                 changed = True
             continue
         current = joint_share(selected, y, settings)
-        singles = [best_fit(by_name[column], rest, settings, min_effect)
-                   for column in fit.candidate.columns if column in by_name]
+        singles = [
+            best_fit(by_name[column], rest, settings, min_effect)
+            for column in fit.candidate.columns
+            if column in by_name
+        ]
         singles = [single for single in singles if acceptable(single)]
-        scored = [(joint_share(selected[:j] + [single] + selected[j + 1:], y, settings), single) for single in singles]
+        scored = [(joint_share(selected[:j] + [single] + selected[j + 1 :], y, settings), single) for single in singles]
         scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
         if scored:
             selected[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
@@ -598,7 +667,8 @@ def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, settings
 
 
 def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):
-    """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in, and vice versa?"""
+    """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in,
+    and vice versa?"""
     aliases: dict[str, list[str]] = {}
     explained_by: dict[str, str] = {}
     chosen = {s.candidate.name for s in selected}
@@ -607,9 +677,15 @@ def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effec
         a_share = marginal[a.name].explained_share
         aliases[a.name] = []
         # rivals built on A's own column are variants of A's form, not confounders
-        rivals = [fit for name, fit in marginal.items() if name not in chosen and name not in explained_by
-                  and not set(fit.candidate.columns) & set(a.columns)
-                  and fit.explained_share >= RIVAL_SHARE * a_share and a_share > 0]
+        rivals = [
+            fit
+            for name, fit in marginal.items()
+            if name not in chosen
+            and name not in explained_by
+            and not set(fit.candidate.columns) & set(a.columns)
+            and fit.explained_share >= RIVAL_SHARE * a_share
+            and a_share > 0
+        ]
         for rival in sorted(rivals, key=lambda f: -f.explained_share)[:MAX_RIVALS]:
             b = rival.candidate
             b_after_a = best_fit(b, _without(a, cause.form.name, y), settings, min_effect)
@@ -629,8 +705,9 @@ def _without(candidate: Candidate, form_name: str, y):
     return remaining - remaining.mean()
 
 
-def _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings,
-           min_effect) -> pd.DataFrame:
+def _table(
+    marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings, min_effect
+) -> pd.DataFrame:
     chosen = [s.candidate.name for s in selected]
     rows = []
     for name, fit in marginal.items():
@@ -645,8 +722,11 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
             effect_range, effect_std = final.effect_range, final.effect_std
         else:
             after = conditional.get(name, fit)
-            significant = bool(is_significant(after, n_tests, settings, min_effect)) if selected else bool(
-                is_significant(fit, n_tests, settings, min_effect))
+            significant = (
+                bool(is_significant(after, n_tests, settings, min_effect))
+                if selected
+                else bool(is_significant(fit, n_tests, settings, min_effect))
+            )
             conditional_share = after.explained_share
             p_value = after.p_value
             form = fit.form
@@ -666,16 +746,30 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
             note = "a variant of a chosen cause's column: adds nothing beyond it"
         elif form.name == forms.Additive.name:
             note = "no interaction: the product does not beat the two main effects"
-        rows.append({"cause": name, "kind": fit.candidate.kind, "form": form.name,
-                     "family": forms.FAMILIES[form.name], "n_params": int(form.n_params),
-                     "explained_share": fit.explained_share, "conditional_share": conditional_share,
-                     "effect_range": effect_range, "effect_std": effect_std, "p_value": p_value, "significant": significant,
-                     "selected": name in chosen, "description": form.describe(name), "note": note})
+        rows.append(
+            {
+                "cause": name,
+                "kind": fit.candidate.kind,
+                "form": form.name,
+                "family": forms.FAMILIES[form.name],
+                "n_params": int(form.n_params),
+                "explained_share": fit.explained_share,
+                "conditional_share": conditional_share,
+                "effect_range": effect_range,
+                "effect_std": effect_std,
+                "p_value": p_value,
+                "significant": significant,
+                "selected": name in chosen,
+                "description": form.describe(name),
+                "note": note,
+            }
+        )
     table = pd.DataFrame(rows)
     order = {name: i for i, name in enumerate(chosen)}
     table["_chosen"] = table["cause"].map(order).fillna(len(order))
-    table = table.sort_values(["_chosen", "explained_share", "cause"], ascending=[True, False, True],
-                              kind="stable").drop(columns="_chosen")
+    table = table.sort_values(
+        ["_chosen", "explained_share", "cause"], ascending=[True, False, True], kind="stable"
+    ).drop(columns="_chosen")
     table.insert(0, "rank", np.arange(1, len(table) + 1))
     if skipped:
         log.info("columns not used as candidates: %s", skipped)
@@ -685,13 +779,31 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
 def summary_dict(result: Diagnosis) -> dict:
     """What the later steps and the report need: offset, chosen causes (JSON-safe), confounding."""
     return {
-        "offset": result.offset, "offset_se": result.offset_se, "n_rows": result.n_rows,
-        "residual_std": result.residual_std, "surrogate_std": result.surrogate_std, "min_effect": result.min_effect,
-        "selected": [{"name": f.candidate.name, "kind": f.candidate.kind, "columns": list(f.candidate.columns),
-                      "form": f.form.name, "origin": f.candidate.origin, "family": forms.FAMILIES[f.form.name],
-                      "description": f.form.describe(f.candidate.name), "parameters": f.form.to_dict(),
-                      "explained_share": f.explained_share, "effect_range": f.effect_range,
-                      "effect_std": f.effect_std, "p_value": f.p_value} for f in result.selected],
-        "aliases": result.aliases, "explained_by": result.explained_by, "skipped": result.skipped,
+        "offset": result.offset,
+        "offset_se": result.offset_se,
+        "n_rows": result.n_rows,
+        "residual_std": result.residual_std,
+        "surrogate_std": result.surrogate_std,
+        "min_effect": result.min_effect,
+        "selected": [
+            {
+                "name": f.candidate.name,
+                "kind": f.candidate.kind,
+                "columns": list(f.candidate.columns),
+                "form": f.form.name,
+                "origin": f.candidate.origin,
+                "family": forms.FAMILIES[f.form.name],
+                "description": f.form.describe(f.candidate.name),
+                "parameters": f.form.to_dict(),
+                "explained_share": f.explained_share,
+                "effect_range": f.effect_range,
+                "effect_std": f.effect_std,
+                "p_value": f.p_value,
+            }
+            for f in result.selected
+        ],
+        "aliases": result.aliases,
+        "explained_by": result.explained_by,
+        "skipped": result.skipped,
         "proxies": {name: {"cause": cause, "share": share} for name, (cause, share) in result.proxies.items()},
     }

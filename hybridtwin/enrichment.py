@@ -10,6 +10,7 @@ is least sure (a point there also teaches the surrogate most). Then the gate is 
 workflow would rebuild it on the enlarged DoE (standardization and threshold refitted), and the
 parts it brings in, and the share in support, are counted with that gate.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -76,8 +77,9 @@ class Proposal:
     share_after_fixed_threshold: list[float]  # the same with today's threshold held
 
 
-def propose(doe: np.ndarray, production: np.ndarray, k: int, percentile: float, settings: EnrichmentSettings,
-            surrogate_std=None) -> Proposal:
+def propose(
+    doe: np.ndarray, production: np.ndarray, k: int, percentile: float, settings: EnrichmentSettings, surrogate_std=None
+) -> Proposal:
     """``surrogate_std(points) -> std`` (optional) ranks candidates that tie on the parts they bring in."""
     doe, production = np.asarray(doe, float), np.asarray(production, float)
     weights = recency_weights(len(production), settings.recency_weight)
@@ -95,8 +97,11 @@ def propose(doe: np.ndarray, production: np.ndarray, k: int, percentile: float, 
     held = inside.copy()
     z = gate.standardizer_.transform(production[outside])
     clusters = min(settings.n_candidates, int(outside.sum()))
-    centres = KMeans(n_clusters=clusters, n_init=1, random_state=settings.seed).fit(
-        z, sample_weight=weights[outside]).cluster_centers_
+    centres = (
+        KMeans(n_clusters=clusters, n_init=1, random_state=settings.seed)
+        .fit(z, sample_weight=weights[outside])
+        .cluster_centers_
+    )
     candidates = np.clip(centres * gate.standardizer_.scale_ + gate.standardizer_.mean_, low, high)
     raw_std = np.asarray(surrogate_std(candidates), float) if surrogate_std is not None else np.zeros(len(candidates))
     uncertainty = 1.0 + raw_std / raw_std.max() if raw_std.max() > 0 else np.ones(len(candidates))
@@ -143,8 +148,10 @@ def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
                 continue
             counts = values.value_counts()
             if len(counts) <= max(3, len(rows) // 2):
-                parts.append(f"{column} {counts.index[0]} ({counts.iloc[0] / len(rows):.0%})"
-                             + (f" and {len(counts) - 1} more" if len(counts) > 1 else ""))
+                parts.append(
+                    f"{column} {counts.index[0]} ({counts.iloc[0] / len(rows):.0%})"
+                    + (f" and {len(counts) - 1} more" if len(counts) > 1 else "")
+                )
     return "; ".join(parts)
 
 

@@ -4,6 +4,7 @@ The causes and their forms come from the diagnosis; their few parameters are
 refitted here on the in-support rows (by backfitting when there are several).
 The extended hybrid adds an XGBoost model of what the extension leaves over.
 """
+
 from __future__ import annotations
 
 import logging
@@ -49,8 +50,10 @@ class DiscrepancyExtension(RegressorMixin, BaseEstimator):
         self.forms_, self.means_ = forms.backfit(values, [t.form for t in terms], target)
         for j, (form, x) in enumerate(zip(self.forms_, values)):
             # how far each term is trusted beyond its in-support values: judged on its partial residual
-            others = sum((f.predict(v) - m for k, (f, v, m) in enumerate(zip(self.forms_, values, self.means_))
-                          if k != j), np.zeros_like(target))
+            others = sum(
+                (f.predict(v) - m for k, (f, v, m) in enumerate(zip(self.forms_, values, self.means_)) if k != j),
+                np.zeros_like(target),
+            )
             forms.set_trusted_range(form, x, target - others)
         return self
 
@@ -70,9 +73,13 @@ class DiscrepancyExtension(RegressorMixin, BaseEstimator):
         return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))
 
     def to_dict(self) -> dict:
-        return {"format": "hybridtwin.DiscrepancyExtension/1", "offset": self.offset_,
-                "causes": [t.to_dict() for t in self._terms()],
-                "forms": [f.to_dict() for f in self.forms_], "means": self.means_}
+        return {
+            "format": "hybridtwin.DiscrepancyExtension/1",
+            "offset": self.offset_,
+            "causes": [t.to_dict() for t in self._terms()],
+            "forms": [f.to_dict() for f in self.forms_],
+            "means": self.means_,
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "DiscrepancyExtension":
@@ -119,8 +126,17 @@ class Evaluation:
     matched: dict[str, np.ndarray]
 
 
-def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataFrame, matched: pd.DataFrame,
-             matched_cases: pd.DataFrame, inputs, terms, make_xgb, splits) -> Evaluation:
+def evaluate(
+    production: pd.DataFrame,
+    residuals: pd.DataFrame,
+    hybrid: pd.DataFrame,
+    matched: pd.DataFrame,
+    matched_cases: pd.DataFrame,
+    inputs,
+    terms,
+    make_xgb,
+    splits,
+) -> Evaluation:
     """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
 
     ``residuals``: residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the hybrid's
@@ -136,23 +152,43 @@ def evaluate(production: pd.DataFrame, residuals: pd.DataFrame, hybrid: pd.DataF
     models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb)
     extended = surrogate + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
-    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits)
-    scored = {"surrogate": surrogate, "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
-              "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
-              "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid)}
+    oof_extended, oof_extended_hybrid = cross_validated(
+        production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits
+    )
+    scored = {
+        "surrogate": surrogate,
+        "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
+        "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
+        "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid),
+    }
     surrogate_m = matched_cases["pred_surrogate"].to_numpy(float)
     extended_m = surrogate_m + models.extension.predict(matched)
-    matched_predictions = {"surrogate": surrogate_m, "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
-                           "extended": extended_m,
-                           "extended_hybrid": extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float))}
-    predictions = pd.DataFrame({"pred_extended": extended, "pred_extended_hybrid": extended_hybrid,
-                                "pred_extended_oof": scored["extended"],
-                                "pred_extended_hybrid_oof": scored["extended_hybrid"]})
+    matched_predictions = {
+        "surrogate": surrogate_m,
+        "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
+        "extended": extended_m,
+        "extended_hybrid": extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float)),
+    }
+    predictions = pd.DataFrame(
+        {
+            "pred_extended": extended,
+            "pred_extended_hybrid": extended_hybrid,
+            "pred_extended_oof": scored["extended"],
+            "pred_extended_hybrid_oof": scored["extended_hybrid"],
+        }
+    )
     return Evaluation(models, predictions, scored, matched_predictions)
 
 
-def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched_measured,
-               matched_predictions: dict[str, np.ndarray], truth=None, noise: float | None = None) -> pd.DataFrame:
+def gain_table(
+    measured,
+    predictions: dict[str, np.ndarray],
+    in_support,
+    matched_measured,
+    matched_predictions: dict[str, np.ndarray],
+    truth=None,
+    noise: float | None = None,
+) -> pd.DataFrame:
     """model_extension.csv: RMSE in support (out-of-fold), out of support and on matched cases per model.
 
     ``predictions`` hold, per model, out-of-fold values on in-support rows and
@@ -164,9 +200,12 @@ def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched
     measured = np.asarray(measured, float)
     rows = []
     for model, pred in predictions.items():
-        row = {"model": model, "rmse_in_support_cv": rmse(measured[inside], pred[inside]),
-               "rmse_out_of_support": rmse(measured[~inside], pred[~inside]),
-               "rmse_matched": rmse(matched_measured, matched_predictions[model])}
+        row = {
+            "model": model,
+            "rmse_in_support_cv": rmse(measured[inside], pred[inside]),
+            "rmse_out_of_support": rmse(measured[~inside], pred[~inside]),
+            "rmse_matched": rmse(matched_measured, matched_predictions[model]),
+        }
         if truth is not None:
             truth = np.asarray(truth, float)
             row["rmse_truth_in_support_cv"] = rmse(truth[inside], pred[inside])
@@ -177,9 +216,10 @@ def gain_table(measured, predictions: dict[str, np.ndarray], in_support, matched
     table["n_in_support"] = int(inside.sum())
     table["n_out_of_support"] = int((~inside).sum())
     table["n_matched"] = len(matched_measured)
-    table["evaluated_on"] = ("measured production draw-in: in support out-of-fold (K-fold CV; the causes and forms "
-                             "were chosen on all in-support rows, only their parameters refitted per fold), out of "
-                             "support with models fitted on all in-support rows (never on these rows); matched "
-                             "cases (never used for fitting)"
-                             + ("; truth = the demo's noise-free plant" if truth is not None else ""))
+    table["evaluated_on"] = (
+        "measured production draw-in: in support out-of-fold (K-fold CV; the causes and forms "
+        "were chosen on all in-support rows, only their parameters refitted per fold), out of "
+        "support with models fitted on all in-support rows (never on these rows); matched "
+        "cases (never used for fitting)" + ("; truth = the demo's noise-free plant" if truth is not None else "")
+    )
     return table

@@ -4,6 +4,7 @@ Every file is written to a temporary name beside its target and renamed into
 place, so a killed run never leaves a half-written output that a later run
 would take as done.
 """
+
 from __future__ import annotations
 
 import json
@@ -48,8 +49,10 @@ def check_owner() -> None:
     if host and host != socket.gethostname():
         return  # a cluster job on another machine: the run's process id means nothing here
     if owner and not process_alive(int(owner)):
-        raise OrphanedJob(f"the workflow run (process {owner}) that started this job is gone: its outputs are "
-                          "not written, so they cannot overwrite those of a later run")
+        raise OrphanedJob(
+            f"the workflow run (process {owner}) that started this job is gone: its outputs are "
+            "not written, so they cannot overwrite those of a later run"
+        )
 
 
 @contextmanager
@@ -69,8 +72,9 @@ def atomic_path(path: str | os.PathLike):
         raise
 
 
-def write_csv(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORMAT, sep: str = ",",
-              decimal: str = ".") -> None:
+def write_csv(
+    frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORMAT, sep: str = ",", decimal: str = "."
+) -> None:
     """``float_format=None`` writes each float with the digits that read back to the same value."""
     if float_format is not None:
         frame = _floats_as_text(frame, float_format, decimal)

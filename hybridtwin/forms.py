@@ -5,6 +5,7 @@ besides the intercept) and ``to_dict``/``form_from_dict`` for JSON model files.
 ``x`` is a 1-D float array, except for ``group`` (level labels) and
 ``product`` (an (n, 2) array).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,9 +14,16 @@ from sklearn.isotonic import IsotonicRegression
 
 from .files import json_safe
 
-FAMILIES = {"linear": "linear", "quadratic": "polynomial", "sigmoid": "saturating", "step": "step",
-            "monotone": "monotone trend", "group": "group offsets", "product": "interaction",
-            "additive": "additive"}
+FAMILIES = {
+    "linear": "linear",
+    "quadratic": "polynomial",
+    "sigmoid": "saturating",
+    "step": "step",
+    "monotone": "monotone trend",
+    "group": "group offsets",
+    "product": "interaction",
+    "additive": "additive",
+}
 
 
 SIGMOID_SPAN = 4.39  # a logistic's 10-90% change spans 2*ln(9) = 4.39 widths
@@ -119,7 +127,10 @@ class Sigmoid(Form):
             return np.column_stack([np.ones_like(x), s, -ds * scale / width_, -ds * z])
 
         start = [intercept, amplitude, threshold / scale, np.log(width / scale)]
-        bounds = ([-np.inf, -np.inf, low / scale - 0.5, np.log(1e-3)], [np.inf, np.inf, high / scale + 0.5, np.log(5.0)])
+        bounds = (
+            [-np.inf, -np.inf, low / scale - 0.5, np.log(1e-3)],
+            [np.inf, np.inf, high / scale + 0.5, np.log(5.0)],
+        )
         start[2] = float(np.clip(start[2], bounds[0][2], bounds[1][2]))
         solution = least_squares(residuals, start, jac=jacobian, bounds=bounds, x_scale="jac", max_nfev=100)
         self.intercept, self.amplitude = float(solution.x[0]), float(solution.x[1])
@@ -130,8 +141,10 @@ class Sigmoid(Form):
         return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
 
     def describe(self, column, unit="mm"):
-        return (f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
-                f"(10-90% over {SIGMOID_SPAN * self.width:.3g})")
+        return (
+            f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
+            f"(10-90% over {SIGMOID_SPAN * self.width:.3g})"
+        )
 
 
 class Step(Form):
@@ -256,8 +269,10 @@ class Additive(Product):
 
     def describe(self, column, unit="mm"):
         first, second = column.split("*")
-        return (f"additive: {self.coefficients[1]:+.4g} {unit} per unit of {first}, "
-                f"{self.coefficients[2]:+.4g} {unit} per unit of {second}")
+        return (
+            f"additive: {self.coefficients[1]:+.4g} {unit} per unit of {first}, "
+            f"{self.coefficients[2]:+.4g} {unit} per unit of {second}"
+        )
 
 
 NUMERIC_FORMS = (Linear, Quadratic, Sigmoid, Step, Monotone)

@@ -1,4 +1,5 @@
 """DoE-only standardization and the kNN support gate (the validated domain Omega)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,12 +33,15 @@ def input_matrix(estimator, X) -> np.ndarray:
     if names is not None and hasattr(X, "columns"):
         missing = [name for name in names if name not in X.columns]
         if missing:
-            raise InputColumnsError(f"no input column {', '.join(map(repr, missing))}; "
-                                    f"the model was fitted on {', '.join(names)}")
+            raise InputColumnsError(
+                f"no input column {', '.join(map(repr, missing))}; the model was fitted on {', '.join(names)}"
+            )
         X = X[names]
     X = np.asarray(X, float)
     if X.ndim != 2 or X.shape[1] != estimator.n_features_in_:
-        raise InputColumnsError(f"{X.shape[-1]} input columns given, the model was fitted on {estimator.n_features_in_}")
+        raise InputColumnsError(
+            f"{X.shape[-1]} input columns given, the model was fitted on {estimator.n_features_in_}"
+        )
     return X
 
 
@@ -112,8 +116,14 @@ class KNNSupportGate(BaseEstimator):
         return self.distance(X) <= self.threshold_
 
     def to_dict(self) -> dict:
-        return {"inputs": input_names(self), "k": self.k, "percentile": self.percentile, "threshold": self.threshold_,
-                "standardizer": self.standardizer_.to_dict(), "reference": self.reference_.tolist()}
+        return {
+            "inputs": input_names(self),
+            "k": self.k,
+            "percentile": self.percentile,
+            "threshold": self.threshold_,
+            "standardizer": self.standardizer_.to_dict(),
+            "reference": self.reference_.tolist(),
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "KNNSupportGate":

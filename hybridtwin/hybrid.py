@@ -1,4 +1,5 @@
 """The hybrid predictor y_hyb(x) = y_FEM_hat(x) + r_hat(x), gated to the support, and synthetic data."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,8 +25,10 @@ def sample_in_support(gate, bounds_low, bounds_high, n_samples: int, seed: int, 
         kept.append(candidates[gate.predict(candidates)])
     samples = np.vstack(kept)
     if len(samples) < n_samples:
-        raise RuntimeError(f"only {len(samples)} of {n_samples} support samples found in {drawn} draws; "
-                           "lower synthetic.n_samples or raise gate.percentile")
+        raise RuntimeError(
+            f"only {len(samples)} of {n_samples} support samples found in {drawn} draws; "
+            "lower synthetic.n_samples or raise gate.percentile"
+        )
     return samples[:n_samples]
 
 

@@ -16,6 +16,7 @@ Calibration and test rows are alternating blocks of consecutive production
 rows (a plant's log is in time order), so a test row's neighbours in time are
 not in the calibration set; the coverage table is computed on the test rows only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -30,8 +31,16 @@ from .metrics import rmse
 IN_SUPPORT = "in_support"
 # the models a row's prediction can come from; the unfiltered hybrid trains on out-of-support rows,
 # so its errors there are those of random folds through the very campaigns it learnt: reported, not recommended
-RECOMMENDABLE = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid", "gp_discrepancy", "cokriging",
-                 "stack")
+RECOMMENDABLE = (
+    "surrogate",
+    "hybrid_gated",
+    "hybrid",
+    "extended",
+    "extended_hybrid",
+    "gp_discrepancy",
+    "cokriging",
+    "stack",
+)
 STACK = "stack"  # a non-negative blend of the other recommendable models, per region
 MIN_CALIBRATION_ROWS = 100
 MAX_CALIBRATION_ROWS = 5000
@@ -45,9 +54,11 @@ def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
     """Per model, the predictions no row was trained on (columns of results/predictions/production.csv)."""
     inside = in_support(predictions)
     surrogate = predictions["pred_surrogate"].to_numpy(float)
-    honest = {"surrogate": surrogate,
-              "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
-              "hybrid": predictions["pred_hybrid_oof"].to_numpy(float)}
+    honest = {
+        "surrogate": surrogate,
+        "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
+        "hybrid": predictions["pred_hybrid_oof"].to_numpy(float),
+    }
     for model in ("hybrid_unfiltered", "extended", "extended_hybrid", "gp_discrepancy", "cokriging"):
         if f"pred_{model}_oof" in predictions:
             honest[model] = predictions[f"pred_{model}_oof"].to_numpy(float)
@@ -70,8 +81,10 @@ def describe_outside(beyond: pd.DataFrame, doe_range: dict[str, tuple[float, flo
     for j, name in enumerate(beyond.columns):
         rows = np.flatnonzero(values[:, j] != 0)
         low, high = doe_range[name]
-        for side, mask, bound in ((" above the DoE's max ", values[rows, j] > 0, high),
-                                  (" below the DoE's min ", values[rows, j] < 0, low)):
+        for side, mask, bound in (
+            (" above the DoE's max ", values[rows, j] > 0, high),
+            (" below the DoE's min ", values[rows, j] < 0, low),
+        ):
             at = rows[mask]
             amounts = np.array([f"{abs(v):.4g}" for v in values[at, j]], dtype=object)
             separator = np.where(texts[at] != "", "; ", "").astype(object)
@@ -128,7 +141,7 @@ def blend(weights: dict[str, float], predictions: dict[str, np.ndarray], rows) -
 def _cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarray) -> np.ndarray:
     """The stack on ``rows``, each half predicted with the weights fitted on the other half (no row scores itself)."""
     out = np.full(len(measured), np.nan)
-    first, second = rows[:len(rows) // 2], rows[len(rows) // 2:]
+    first, second = rows[: len(rows) // 2], rows[len(rows) // 2 :]
     out[second] = blend(stack_weights(measured, members, first), members, second)
     out[first] = blend(stack_weights(measured, members, second), members, first)
     return out
@@ -147,8 +160,9 @@ def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> l
     contenders = {m: p for m, p in candidates.items() if m in RECOMMENDABLE}
     common = rows[np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)]
     if not len(common):  # no row where all have a value: each on its own rows
-        scores = {m: rmse(measured[rows][np.isfinite(p[rows])], p[rows][np.isfinite(p[rows])])
-                  for m, p in contenders.items()}
+        scores = {
+            m: rmse(measured[rows][np.isfinite(p[rows])], p[rows][np.isfinite(p[rows])]) for m, p in contenders.items()
+        }
     else:
         scores = {m: rmse(measured[common], p[common]) for m, p in contenders.items()}
     return sorted(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
@@ -161,8 +175,14 @@ class RegionIntervals:
     region's calibration rows; stored as such (JSON), refitted with crepes on load.
     """
 
-    def __init__(self, calibration: dict[str, dict[str, list[float]]], ranking: dict[str, list[str]],
-                 edges: list[float], max_distance: float | None, weights: dict[str, dict[str, float]] | None = None):
+    def __init__(
+        self,
+        calibration: dict[str, dict[str, list[float]]],
+        ranking: dict[str, list[str]],
+        edges: list[float],
+        max_distance: float | None,
+        weights: dict[str, dict[str, float]] | None = None,
+    ):
         self.calibration = calibration
         self.ranking = ranking
         self.weights = weights or {}
@@ -175,8 +195,16 @@ class RegionIntervals:
             self._conformal[model] = ConformalRegressor().fit(errors, bins=labels)
 
     @classmethod
-    def fit(cls, measured, honest: dict[str, np.ndarray], region: np.ndarray, calibration: np.ndarray,
-            edges: list[float], distance=None, seed: int = 0) -> "RegionIntervals":
+    def fit(
+        cls,
+        measured,
+        honest: dict[str, np.ndarray],
+        region: np.ndarray,
+        calibration: np.ndarray,
+        edges: list[float],
+        distance=None,
+        seed: int = 0,
+    ) -> "RegionIntervals":
         measured = np.asarray(measured, float)
         region = np.asarray(region, object)
         table, ranking, weights = {}, {}, {}
@@ -191,12 +219,14 @@ class RegionIntervals:
             for model, prediction in candidates.items():
                 scored = rows[np.isfinite(prediction[rows])]  # a peer has no honest value on the parts it trained on
                 if len(scored):
-                    table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]),
-                                                                 6).tolist()
+                    table.setdefault(model, {})[name] = np.round(
+                        np.abs(measured[scored] - prediction[scored]), 6
+                    ).tolist()
             ranking[name] = _ranking(measured, {m: p for m, p in candidates.items() if m in table}, rows)
         outside = calibration & (region != IN_SUPPORT)
-        max_distance = (float(np.max(np.asarray(distance, float)[outside]))
-                        if outside.any() and distance is not None else None)
+        max_distance = (
+            float(np.max(np.asarray(distance, float)[outside])) if outside.any() and distance is not None else None
+        )
         return cls(table, ranking, edges, max_distance, weights)
 
     def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
@@ -244,23 +274,40 @@ class RegionIntervals:
         return chosen
 
     def to_dict(self) -> dict:
-        return {"calibration": self.calibration, "recommended": self.recommended, "ranking": self.ranking,
-                "distance_edges": self.edges,
-                "max_calibrated_distance": self.max_distance, "stack_weights": self.weights}
+        return {
+            "calibration": self.calibration,
+            "recommended": self.recommended,
+            "ranking": self.ranking,
+            "distance_edges": self.edges,
+            "max_calibrated_distance": self.max_distance,
+            "stack_weights": self.weights,
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "RegionIntervals":
-        return cls(data["calibration"], data["ranking"], data["distance_edges"], data["max_calibrated_distance"],
-                   data.get("stack_weights"))
+        return cls(
+            data["calibration"],
+            data["ranking"],
+            data["distance_edges"],
+            data["max_calibrated_distance"],
+            data.get("stack_weights"),
+        )
 
 
-def recommended_prediction(intervals: RegionIntervals, predictions: dict[str, np.ndarray], region,
-                           level: float) -> pd.DataFrame:
+def recommended_prediction(
+    intervals: RegionIntervals, predictions: dict[str, np.ndarray], region, level: float
+) -> pd.DataFrame:
     """pred_recommended, recommended_model, pred_lower, pred_upper per row."""
     chosen = intervals.recommend(region, predictions)
     n = len(chosen)
-    out = pd.DataFrame({"pred_recommended": np.full(n, np.nan), "recommended_model": chosen,
-                        "pred_lower": np.full(n, np.nan), "pred_upper": np.full(n, np.nan)})
+    out = pd.DataFrame(
+        {
+            "pred_recommended": np.full(n, np.nan),
+            "recommended_model": chosen,
+            "pred_lower": np.full(n, np.nan),
+            "pred_upper": np.full(n, np.nan),
+        }
+    )
     region = np.asarray(region, object)
     for model in sorted(set(chosen)):
         rows = np.flatnonzero(chosen == model)
@@ -286,19 +333,37 @@ def _region_label(name: str, edges: list[float], threshold: float) -> str:
     return f"out of support, distance {low:.3g} to {high:.3g}"
 
 
-def _bounds(intervals: RegionIntervals, predictions: dict[str, np.ndarray], labels: np.ndarray, rows: np.ndarray,
-            model: str, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _bounds(
+    intervals: RegionIntervals,
+    predictions: dict[str, np.ndarray],
+    labels: np.ndarray,
+    rows: np.ndarray,
+    model: str,
+    level: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Prediction and bounds of one model, or of the recommended one, on ``rows``."""
     if model == "recommended":
         picked = recommended_prediction(intervals, {m: p[rows] for m, p in predictions.items()}, labels[rows], level)
-        return (picked["pred_recommended"].to_numpy(float), picked["pred_lower"].to_numpy(float),
-                picked["pred_upper"].to_numpy(float))
+        return (
+            picked["pred_recommended"].to_numpy(float),
+            picked["pred_lower"].to_numpy(float),
+            picked["pred_upper"].to_numpy(float),
+        )
     lower, upper = intervals.interval(model, predictions[model][rows], labels[rows], level)
     return predictions[model][rows], lower, upper
 
 
-def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration: np.ndarray, edges: list[float],
-                   threshold: float, level: float, truth=None, seed: int = 0) -> pd.DataFrame:
+def coverage_table(
+    measured,
+    honest: dict[str, np.ndarray],
+    region,
+    calibration: np.ndarray,
+    edges: list[float],
+    threshold: float,
+    level: float,
+    truth=None,
+    seed: int = 0,
+) -> pd.DataFrame:
     """prediction_intervals.csv: on the test rows, per region and model, coverage, mean width and RMSE.
 
     Two calibrations are compared: by region (what the predictor uses) and one pool of all
@@ -328,10 +393,17 @@ def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration:
                 if not ok.any():
                     continue
                 idx, prediction, lower, upper = idx[ok], prediction[ok], lower[ok], upper[ok]
-                row = {"region": name, "region_label": label, "model": model, "calibration": method,
-                       "nominal_level": level, "n_test": len(idx),
-                       "coverage": float(np.mean((measured[idx] >= lower) & (measured[idx] <= upper))),
-                       "mean_width": float(np.mean(upper - lower)), "rmse_test": rmse(measured[idx], prediction)}
+                row = {
+                    "region": name,
+                    "region_label": label,
+                    "model": model,
+                    "calibration": method,
+                    "nominal_level": level,
+                    "n_test": len(idx),
+                    "coverage": float(np.mean((measured[idx] >= lower) & (measured[idx] <= upper))),
+                    "mean_width": float(np.mean(upper - lower)),
+                    "rmse_test": rmse(measured[idx], prediction),
+                }
                 if truth is not None:
                     reference = np.asarray(truth, float)[idx]
                     row["coverage_truth"] = float(np.mean((reference >= lower) & (reference <= upper)))
@@ -339,16 +411,19 @@ def coverage_table(measured, honest: dict[str, np.ndarray], region, calibration:
                 rows.append(row)
     table = pd.DataFrame(rows)
     # the calibration rows a region's intervals rest on (a seeded sample of MAX_CALIBRATION_ROWS where there are more)
-    table["n_calibration"] = table["region"].map(
-        {name: min(int(np.sum(calibration & (region == name))), MAX_CALIBRATION_ROWS) for name in set(region)}
-    ).fillna(min(int(calibration.sum()), MAX_CALIBRATION_ROWS))
+    table["n_calibration"] = (
+        table["region"]
+        .map({name: min(int(np.sum(calibration & (region == name))), MAX_CALIBRATION_ROWS) for name in set(region)})
+        .fillna(min(int(calibration.sum()), MAX_CALIBRATION_ROWS))
+    )
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
         "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
         "seen), models never trained on the row outside it; a peer is scored on the rows it did not train on; "
         "coverage of the measured value"
-        + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if truth is not None else ""))
+        + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if truth is not None else "")
+    )
     return table
 
 
@@ -363,8 +438,17 @@ class Calibration:
     honest: dict[str, np.ndarray]  # with the stack
 
 
-def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[str, tuple[float, float]],
-              threshold: float, level: float, n_bins: int, n_blocks: int, seed: int, truth=None) -> Calibration:
+def calibrate(
+    predictions: pd.DataFrame,
+    inputs: pd.DataFrame,
+    doe_range: dict[str, tuple[float, float]],
+    threshold: float,
+    level: float,
+    n_bins: int,
+    n_blocks: int,
+    seed: int,
+    truth=None,
+) -> Calibration:
     """Regions, intervals and recommended models from results/predictions/production.csv, and their test table."""
     beyond = (outside_range(inputs, doe_range) != 0).any(axis=1).to_numpy()
     inside = in_support(predictions)
@@ -376,8 +460,10 @@ def calibrate(predictions: pd.DataFrame, inputs: pd.DataFrame, doe_range: dict[s
     measured = predictions["measured"].to_numpy(float)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed)
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed)
-    table["recommended"] = [model == "recommended" or fitted.recommended.get(name) == model
-                            for name, model in zip(table["region"], table["model"])]
+    table["recommended"] = [
+        model == "recommended" or fitted.recommended.get(name) == model
+        for name, model in zip(table["region"], table["model"])
+    ]
     return Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
 
 
@@ -391,7 +477,12 @@ def figure_data(calibrated: Calibration, measured, distance, level: float, seed:
     half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
     table = calibrated.table
     recommended = table[(table["model"] == "recommended") & (table["calibration"] == "by_region")]
-    return {"distance": np.asarray(distance, float)[shown], "error": error[shown], "region": calibrated.region[shown],
-            "half_width": {name: float(np.nanmedian(half[calibrated.region == name]))
-                           for name in calibrated.intervals.regions},
-            "coverage": dict(zip(recommended["region"], recommended["coverage"]))}
+    return {
+        "distance": np.asarray(distance, float)[shown],
+        "error": error[shown],
+        "region": calibrated.region[shown],
+        "half_width": {
+            name: float(np.nanmedian(half[calibrated.region == name])) for name in calibrated.intervals.regions
+        },
+        "coverage": dict(zip(recommended["region"], recommended["coverage"])),
+    }

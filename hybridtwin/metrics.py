@@ -1,4 +1,5 @@
 """The paper's error indicators (Eqs. 1-4), defined as error = reference - prediction."""
+
 from __future__ import annotations
 
 import numpy as np

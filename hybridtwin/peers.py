@@ -10,6 +10,7 @@
 Both store their training rows and hyperparameters as JSON and are rebuilt from them exactly
 (no optimizer runs on load, no pickle).
 """
+
 from __future__ import annotations
 
 import time
@@ -41,8 +42,11 @@ def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
 
 
 def _batched(predict, X: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.ravel(predict(X[start:start + BATCH_ROWS]))
-                           for start in range(0, len(X), BATCH_ROWS)]) if len(X) else np.empty(0)
+    return (
+        np.concatenate([np.ravel(predict(X[start : start + BATCH_ROWS])) for start in range(0, len(X), BATCH_ROWS)])
+        if len(X)
+        else np.empty(0)
+    )
 
 
 class GPDiscrepancy(RegressorMixin, BaseEstimator):
@@ -65,8 +69,11 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         self.fit_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
         # the same kernel, its hyperparameters fixed, on more rows (GPRSurrogate.from_dict refits without optimizing)
         state = hyper.to_dict()
-        state.update(inputs=None, X_train=hyper.standardizer_.transform(matrix[self.fit_rows_]).tolist(),
-                     y_train=y[self.fit_rows_].tolist())
+        state.update(
+            inputs=None,
+            X_train=hyper.standardizer_.transform(matrix[self.fit_rows_]).tolist(),
+            y_train=y[self.fit_rows_].tolist(),
+        )
         self.gp_ = GPRSurrogate.from_dict(state)
         return self
 
@@ -75,8 +82,13 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         return _batched(self.gp_.predict, input_matrix(self, X))
 
     def to_dict(self) -> dict:
-        return {"format": "hybridtwin.GPDiscrepancy/1", "params": self.get_params(), "inputs": input_names(self),
-                "gp": self.gp_.to_dict(), "n_fit": len(self.fit_rows_)}
+        return {
+            "format": "hybridtwin.GPDiscrepancy/1",
+            "params": self.get_params(),
+            "inputs": input_names(self),
+            "gp": self.gp_.to_dict(),
+            "n_fit": len(self.fit_rows_),
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "GPDiscrepancy":
@@ -118,8 +130,16 @@ class CoKriging(RegressorMixin, BaseEstimator):
         self.random_state = random_state
 
     def _options(self) -> dict:
-        return {"corr": "matern52", "eval_noise": True, "hyper_opt": "Cobyla", "n_start": self.n_start,
-                "theta0": [1.0], "theta_bounds": [1e-4, 50.0], "seed": self.random_state, "print_global": False}
+        return {
+            "corr": "matern52",
+            "eval_noise": True,
+            "hyper_opt": "Cobyla",
+            "n_start": self.n_start,
+            "theta0": [1.0],
+            "theta_bounds": [1e-4, 50.0],
+            "seed": self.random_state,
+            "print_global": False,
+        }
 
     def _train(self, model, X_low, y_low, X_high, y_high):
         model.set_training_values(self.standardizer_.transform(X_low), np.asarray(y_low, float)[:, None], name=0)
@@ -134,12 +154,17 @@ class CoKriging(RegressorMixin, BaseEstimator):
         rows = training_subset(len(X_high), self.n_high, self.random_state)
         X_low = input_matrix(self, X_low)  # the DoE's columns taken by name, as the parts'
         self.standardizer_ = DoEStandardizer().fit(X_low)  # the DoE's statistics, as the gate's
-        self.data_ = {"X_low": X_low, "y_low": np.asarray(y_low, float), "X_high": X_high[rows],
-                      "y_high": np.asarray(y, float)[rows]}
+        self.data_ = {
+            "X_low": X_low,
+            "y_low": np.asarray(y_low, float),
+            "X_high": X_high[rows],
+            "y_high": np.asarray(y, float)[rows],
+        }
         MFK, _ = _mfk_class()
         self.mfk_ = self._train(MFK(**self._options()), **self.data_)
-        self.hyperparameters_ = [np.append(self.mfk_.optimal_theta[level], self.mfk_.optimal_noise_all[level]).tolist()
-                                 for level in range(2)]
+        self.hyperparameters_ = [
+            np.append(self.mfk_.optimal_theta[level], self.mfk_.optimal_noise_all[level]).tolist() for level in range(2)
+        ]
         return self
 
     def predict(self, X) -> np.ndarray:
@@ -148,9 +173,14 @@ class CoKriging(RegressorMixin, BaseEstimator):
         return _batched(self.mfk_.predict_values, X)
 
     def to_dict(self) -> dict:
-        return {"format": "hybridtwin.CoKriging/1", "params": self.get_params(), "inputs": input_names(self),
-                "standardizer": self.standardizer_.to_dict(), "hyperparameters": self.hyperparameters_,
-                "data": {key: value.tolist() for key, value in self.data_.items()}}
+        return {
+            "format": "hybridtwin.CoKriging/1",
+            "params": self.get_params(),
+            "inputs": input_names(self),
+            "standardizer": self.standardizer_.to_dict(),
+            "hyperparameters": self.hyperparameters_,
+            "data": {key: value.tolist() for key, value in self.data_.items()},
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "CoKriging":
@@ -176,8 +206,16 @@ class PeerFit:
     n_train: int
 
 
-def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: pd.DataFrame, inputs, target: str,
-             settings: dict, seed: int) -> PeerFit:
+def fit_peer(
+    kind: str,
+    doe: pd.DataFrame,
+    production: pd.DataFrame,
+    residuals: pd.DataFrame,
+    inputs,
+    target: str,
+    settings: dict,
+    seed: int,
+) -> PeerFit:
     """Fit one peer on the DoE and the in-support parts; predict every production row.
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
@@ -201,8 +239,7 @@ def fit_peer(kind: str, doe: pd.DataFrame, production: pd.DataFrame, residuals: 
     final = peer_prediction(kind, model, production[inputs], residuals["pred_surrogate"].to_numpy(float))
     honest = final.copy()
     honest[inside[trained]] = np.nan
-    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds,
-                   int(len(trained)))
+    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds, int(len(trained)))
 
 
 def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) -> np.ndarray:
@@ -219,13 +256,30 @@ def load_peer(kind: str, data: dict):
     return {"gp_discrepancy": GPDiscrepancy, "cokriging": CoKriging}[kind].from_dict(data)
 
 
-COMPARED = ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid", "gp_discrepancy", "cokriging",
-            "stack", "recommended")
+COMPARED = (
+    "surrogate",
+    "hybrid_gated",
+    "hybrid",
+    "extended",
+    "extended_hybrid",
+    "gp_discrepancy",
+    "cokriging",
+    "stack",
+    "recommended",
+)
 
 
-def comparison_table(measured, predictions: dict[str, np.ndarray], in_support, test: np.ndarray,
-                     matched_measured, matched_predictions: dict[str, np.ndarray], fits: dict[str, dict],
-                     truth=None, noise: float | None = None) -> pd.DataFrame:
+def comparison_table(
+    measured,
+    predictions: dict[str, np.ndarray],
+    in_support,
+    test: np.ndarray,
+    matched_measured,
+    matched_predictions: dict[str, np.ndarray],
+    fits: dict[str, dict],
+    truth=None,
+    noise: float | None = None,
+) -> pd.DataFrame:
     """peer_comparison.csv: every model on the same held-out production rows, in and out of the support.
 
     ``predictions`` are honest (out-of-fold, or from models never trained on the row; a peer NaN on the parts it
@@ -238,8 +292,15 @@ def comparison_table(measured, predictions: dict[str, np.ndarray], in_support, t
     rows = np.flatnonzero(test & np.all([np.isfinite(predictions[m]) for m in names], axis=0))
     truth_rows = None if truth is None else np.asarray(truth, float)[rows]
     matched = {m: np.asarray(matched_predictions.get(m, np.full(len(matched_measured), np.nan)), float) for m in names}
-    table = gain_table(np.asarray(measured, float)[rows], {m: predictions[m][rows] for m in names},
-                       np.asarray(in_support, bool)[rows], matched_measured, matched, truth_rows, noise)
+    table = gain_table(
+        np.asarray(measured, float)[rows],
+        {m: predictions[m][rows] for m in names},
+        np.asarray(in_support, bool)[rows],
+        matched_measured,
+        matched,
+        truth_rows,
+        noise,
+    )
     # (fit times vary from run to run, so they stay out of the table: results/peers/<peer>.json and the benchmarks)
     table["n_train"] = table["model"].map({k: v["n_train"] for k, v in fits.items()})
     table["evaluated_on"] = (
@@ -247,5 +308,6 @@ def comparison_table(measured, predictions: dict[str, np.ndarray], in_support, t
         "chosen on the even blocks), the same rows for every model: in support out-of-fold for the hybrid and the "
         "extension, never among a peer's training parts; out of support from models never trained there; matched "
         "cases never used for fitting (the stack and the recommended model are not scored on them)"
-        + ("; truth = the demo's noise-free plant" if truth is not None else ""))
+        + ("; truth = the demo's noise-free plant" if truth is not None else "")
+    )
     return table

@@ -1,4 +1,5 @@
 """Figures. Each function returns a matplotlib Figure; files.save_figure writes it."""
+
 from __future__ import annotations
 
 import matplotlib
@@ -7,22 +8,38 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-plt.rcParams.update({"figure.dpi": 120, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
-                     "svg.hashsalt": "hybridtwin"})
+plt.rcParams.update(
+    {"figure.dpi": 120, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9, "svg.hashsalt": "hybridtwin"}
+)
 
 
 def support_distances(doe_distances, production_distances, threshold, percentile):
     figure, axis = plt.subplots(figsize=(6, 3.5))
     production_distances = np.asarray(production_distances, float)
     bins = np.linspace(0, np.percentile(production_distances, 99.5) * 1.05, 60)
-    axis.hist(production_distances, bins=bins, color="0.6", label=f"production (n={len(production_distances):,})",
-              density=True)
-    axis.hist(doe_distances, bins=bins, histtype="step", color="C0", lw=1.5, density=True,
-              label=f"DoE leave-one-out (n={len(doe_distances)})")
+    axis.hist(
+        production_distances,
+        bins=bins,
+        color="0.6",
+        label=f"production (n={len(production_distances):,})",
+        density=True,
+    )
+    axis.hist(
+        doe_distances,
+        bins=bins,
+        histtype="step",
+        color="C0",
+        lw=1.5,
+        density=True,
+        label=f"DoE leave-one-out (n={len(doe_distances)})",
+    )
     axis.axvline(threshold, color="C3", ls="--", label=f"threshold ({percentile:g}th pct) = {threshold:.2f}")
     inside = np.mean(production_distances <= threshold)
-    axis.set(xlabel="mean distance to k nearest DoE points (DoE-standardized)", ylabel="density",
-             title=f"kNN support: {inside:.1%} of production in support")
+    axis.set(
+        xlabel="mean distance to k nearest DoE points (DoE-standardized)",
+        ylabel="density",
+        title=f"kNN support: {inside:.1%} of production in support",
+    )
     axis.legend()
     return figure
 
@@ -48,14 +65,33 @@ def _one_to_one(axis, *arrays):
 def residual_check(production_target, production_pred, matched_target, matched_pred, matched_scores: dict):
     """Figure 2: predicted residual against its target, production cloud and matched cases."""
     figure, axis = plt.subplots(figsize=(5.5, 5))
-    axis.scatter(production_target, production_pred, s=3, color="0.65", alpha=0.35, rasterized=True,
-                 label=f"production in support, out-of-fold (n={len(production_target):,})")
-    axis.scatter(matched_target, matched_pred, s=40, color="C0", edgecolor="k", zorder=3,
-                 label=(f"matched cases, true residual (n={len(matched_target)}): R²={matched_scores['r2']:.2f}, "
-                        f"RMSE={matched_scores['rmse']:.2f} mm"))
+    axis.scatter(
+        production_target,
+        production_pred,
+        s=3,
+        color="0.65",
+        alpha=0.35,
+        rasterized=True,
+        label=f"production in support, out-of-fold (n={len(production_target):,})",
+    )
+    axis.scatter(
+        matched_target,
+        matched_pred,
+        s=40,
+        color="C0",
+        edgecolor="k",
+        zorder=3,
+        label=(
+            f"matched cases, true residual (n={len(matched_target)}): R²={matched_scores['r2']:.2f}, "
+            f"RMSE={matched_scores['rmse']:.2f} mm"
+        ),
+    )
     _one_to_one(axis, production_target, production_pred, matched_target, matched_pred)
-    axis.set(xlabel="residual target: r_approx (production) / true residual (matched) [mm]",
-             ylabel="predicted residual r_hat [mm]", title="Residual model: production and matched cases")
+    axis.set(
+        xlabel="residual target: r_approx (production) / true residual (matched) [mm]",
+        ylabel="predicted residual r_hat [mm]",
+        title="Residual model: production and matched cases",
+    )
     axis.legend(loc="upper left", fontsize=7)
     return figure
 
@@ -69,8 +105,14 @@ def error_distributions(groups: dict[str, dict[str, np.ndarray]]):
         for index, (name, error) in enumerate(errors.items()):
             error = np.asarray(error, float)
             std = error.std(ddof=1) if len(error) > 1 else 0.0
-            axis.hist(error, bins=bins, alpha=0.55, color=f"C{index}", density=True,
-                      label=f"{name}: μ={error.mean():.2f}, σ={std:.2f} mm")
+            axis.hist(
+                error,
+                bins=bins,
+                alpha=0.55,
+                color=f"C{index}",
+                density=True,
+                label=f"{name}: μ={error.mean():.2f}, σ={std:.2f} mm",
+            )
         axis.axvline(0, color="k", lw=0.8)
         axis.set(xlabel="error = measured − predicted [mm]", ylabel="density", title=title)
         axis.legend(fontsize=7)
@@ -84,19 +126,39 @@ def cause_profile(profile: dict, rank: int, significant: bool):
     status = "significant" if significant else "not significant"
     if profile["kind"] == "group":
         positions = np.arange(len(profile["levels"]))
-        axis.errorbar(positions, profile["mean"], yerr=2 * profile["se"], fmt="o", ms=3, color="0.3",
-                      label="residual per level (mean ± 2 SE)")
+        axis.errorbar(
+            positions,
+            profile["mean"],
+            yerr=2 * profile["se"],
+            fmt="o",
+            ms=3,
+            color="0.3",
+            label="residual per level (mean ± 2 SE)",
+        )
         axis.scatter(positions, profile["fitted"], marker="_", s=120, color="C3", label="fitted group offset")
         step = max(1, len(positions) // 30)
         axis.set_xticks(positions[::step], [str(v) for v in profile["levels"]][::step], rotation=90, fontsize=6)
         axis.set_xlabel(profile["name"])
     else:
         binned = profile["binned"]
-        axis.errorbar(binned["center"], binned["mean"], yerr=2 * binned["se"], fmt="o", ms=3, color="0.3",
-                      label="binned residual (mean ± 2 SE)")
+        axis.errorbar(
+            binned["center"],
+            binned["mean"],
+            yerr=2 * binned["se"],
+            fmt="o",
+            ms=3,
+            color="0.3",
+            label="binned residual (mean ± 2 SE)",
+        )
         axis.plot(profile["grid"], profile["curve"], color="C3", lw=2, label=f"fitted form: {profile['form']}")
-        axis.fill_between(profile["grid"], profile["band_low"], profile["band_high"], color="C3", alpha=0.2,
-                          label="95% band (bootstrap)")
+        axis.fill_between(
+            profile["grid"],
+            profile["band_low"],
+            profile["band_high"],
+            color="C3",
+            alpha=0.2,
+            label="95% band (bootstrap)",
+        )
         axis.set_xlabel(profile["xlabel"])
     axis.axhline(0, color="k", lw=0.6)
     axis.set_ylabel("offset-free residual [mm]")
@@ -113,8 +175,16 @@ def placeholder(text: str):
     return figure
 
 
-def prediction_intervals(distance, error, region, half_width: dict[str, float], coverage: dict[str, float],
-                         threshold: float, level: float, unit: str = "mm"):
+def prediction_intervals(
+    distance,
+    error,
+    region,
+    half_width: dict[str, float],
+    coverage: dict[str, float],
+    threshold: float,
+    level: float,
+    unit: str = "mm",
+):
     """Errors of the recommended prediction against the distance to the DoE, with each region's interval."""
     figure, axis = plt.subplots(figsize=(7, 4))
     distance, error, region = np.asarray(distance, float), np.asarray(error, float), np.asarray(region, object)
@@ -128,9 +198,11 @@ def prediction_intervals(distance, error, region, half_width: dict[str, float], 
         label = f"{name.replace('_', ' ')}: ±{half_width[name]:.2f} {unit}, covers {coverage.get(name, np.nan):.1%}"
         axis.fill_between([low, high], -half_width[name], half_width[name], color=color, alpha=0.18, label=label)
     axis.axvline(threshold, color="k", ls="--", lw=1, label=f"support threshold {threshold:.2f}")
-    axis.set(xlabel="mean distance to the k nearest DoE points (DoE-standardized)",
-             ylabel=f"measured − recommended prediction [{unit}]",
-             title=f"{level:.0%} prediction intervals by region (held-out production rows)")
+    axis.set(
+        xlabel="mean distance to the k nearest DoE points (DoE-standardized)",
+        ylabel=f"measured − recommended prediction [{unit}]",
+        title=f"{level:.0%} prediction intervals by region (held-out production rows)",
+    )
     axis.legend(fontsize=7, loc="upper left")
     return figure
 
@@ -140,10 +212,15 @@ def enrichment_share(share_before: float, shares, shares_fixed, k: int):
     figure, axis = plt.subplots(figsize=(6, 3.5))
     steps = np.arange(len(shares) + 1)
     axis.plot(steps, [share_before, *shares], "o-", color="C0", label="gate rebuilt on the enlarged DoE")
-    axis.plot(steps, [share_before, *shares_fixed], "s--", color="C1", ms=4,
-              label="today's threshold held (coverage alone)")
-    axis.set(xlabel="proposed simulations added", ylabel="production parts in support", ylim=(0, 1.02),
-             title=f"What the proposals bring (kNN gate, k={k})")
+    axis.plot(
+        steps, [share_before, *shares_fixed], "s--", color="C1", ms=4, label="today's threshold held (coverage alone)"
+    )
+    axis.set(
+        xlabel="proposed simulations added",
+        ylabel="production parts in support",
+        ylim=(0, 1.02),
+        title=f"What the proposals bring (kNN gate, k={k})",
+    )
     axis.yaxis.set_major_formatter(matplotlib.ticker.PercentFormatter(1.0))
     axis.legend()
     return figure
@@ -171,7 +248,10 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
         for number, (x, y) in enumerate(placed, start=1):
             axis.annotate(str(number), (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, color="C3")
     ratio = pca.explained_variance_ratio_
-    axis.set(xlabel=f"principal axis 1 ({ratio[0]:.0%})", ylabel=f"principal axis 2 ({ratio[1]:.0%})",
-             title="DoE, production and proposed simulations (DoE-standardized inputs)")
+    axis.set(
+        xlabel=f"principal axis 1 ({ratio[0]:.0%})",
+        ylabel=f"principal axis 2 ({ratio[1]:.0%})",
+        title="DoE, production and proposed simulations (DoE-standardized inputs)",
+    )
     axis.legend(fontsize=7)
     return figure

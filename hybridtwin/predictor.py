@@ -9,6 +9,7 @@ format, XGBoost models in XGBoost's own), never a pickle. Every model carries th
 input names it was fitted on and the columns of a table are taken by name, so a
 table with its columns in another order gives the same answers.
 """
+
 from __future__ import annotations
 
 import logging
@@ -27,25 +28,65 @@ log = logging.getLogger(__name__)
 
 MANIFEST = "predictor.json"
 # model files of a workflow run, under its models folder
-FILES = {"surrogate": "surrogate_gpr.json", "gate": "support_gate.json",
-         "residual_filtered": "residual_xgb_filtered.json", "residual_unfiltered": "residual_xgb_unfiltered.json",
-         "extension": "extension.json", "remainder": "residual_xgb_extended.json",
-         "gp_discrepancy": "peer_gp_discrepancy.json", "cokriging": "peer_cokriging.json"}
+FILES = {
+    "surrogate": "surrogate_gpr.json",
+    "gate": "support_gate.json",
+    "residual_filtered": "residual_xgb_filtered.json",
+    "residual_unfiltered": "residual_xgb_unfiltered.json",
+    "extension": "extension.json",
+    "remainder": "residual_xgb_extended.json",
+    "gp_discrepancy": "peer_gp_discrepancy.json",
+    "cokriging": "peer_cokriging.json",
+}
 # columns added to each row, in this order (a contract read by outside tools); after outside_doe_range come
 # beyond_<input> per input: how far the row lies beyond the DoE's range in that input's unit (0 inside)
-ANSWER_COLUMNS = ("in_support", "knn_distance", "outside_doe_range", "in_domain", "region",
-                  "pred_surrogate", "pred_surrogate_std", "pred_hybrid_gated", "pred_hybrid", "pred_hybrid_unfiltered",
-                  "pred_extended", "pred_extended_hybrid", "pred_gp_discrepancy", "pred_cokriging", "pred_stack",
-                  "pred_recommended", "recommended_model", "pred_lower", "pred_upper", "interval_level")
+ANSWER_COLUMNS = (
+    "in_support",
+    "knn_distance",
+    "outside_doe_range",
+    "in_domain",
+    "region",
+    "pred_surrogate",
+    "pred_surrogate_std",
+    "pred_hybrid_gated",
+    "pred_hybrid",
+    "pred_hybrid_unfiltered",
+    "pred_extended",
+    "pred_extended_hybrid",
+    "pred_gp_discrepancy",
+    "pred_cokriging",
+    "pred_stack",
+    "pred_recommended",
+    "recommended_model",
+    "pred_lower",
+    "pred_upper",
+    "interval_level",
+)
 
 
-def manifest(inputs, target: str, unit: str, csv: dict, doe: pd.DataFrame, region_intervals: intervals.RegionIntervals,
-             level: float, threshold: float) -> dict:
+def manifest(
+    inputs,
+    target: str,
+    unit: str,
+    csv: dict,
+    doe: pd.DataFrame,
+    region_intervals: intervals.RegionIntervals,
+    level: float,
+    threshold: float,
+) -> dict:
     """predictor.json: what the predictor needs besides the model files."""
-    return {"format": "hybridtwin.Predictor/1", "inputs": list(inputs), "target": target, "unit": unit,
-            "csv": {"sep": csv.get("sep", ","), "decimal": csv.get("decimal", ".")},
-            "doe_range": {name: [float(doe[name].min()), float(doe[name].max())] for name in inputs},
-            "files": FILES, "level": level, "threshold": threshold, "intervals": region_intervals.to_dict()}
+    return {
+        "format": "hybridtwin.Predictor/1",
+        "inputs": list(inputs),
+        "target": target,
+        "unit": unit,
+        "csv": {"sep": csv.get("sep", ","), "decimal": csv.get("decimal", ".")},
+        "doe_range": {name: [float(doe[name].min()), float(doe[name].max())] for name in inputs},
+        "files": FILES,
+        "level": level,
+        "threshold": threshold,
+        "intervals": region_intervals.to_dict(),
+    }
 
 
 def _xgb(path: Path, inputs: list[str]):
@@ -81,14 +122,18 @@ class Predictor:
         except (OSError, ValueError, KeyError) as error:
             if isinstance(error, data.InputError):
                 raise
-            raise data.InputError(f"models folder {str(models)!r}: {type(error).__name__}: {error}. Point --models at "
-                                  "the results/models folder of a finished run of this version of the workflow") from None
+            raise data.InputError(
+                f"models folder {str(models)!r}: {type(error).__name__}: {error}. Point --models at "
+                "the results/models folder of a finished run of this version of the workflow"
+            ) from None
 
     @classmethod
     def _load(cls, folder: Path) -> "Predictor":
         if not (folder / MANIFEST).exists():
-            raise data.InputError(f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
-                                  "results/models folder of a finished workflow run")
+            raise data.InputError(
+                f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
+                "results/models folder of a finished workflow run"
+            )
         spec = files.read_json(folder / MANIFEST)
         inputs = list(spec["inputs"])
         model_files = {key: folder / name for key, name in spec["files"].items()}
@@ -96,22 +141,33 @@ class Predictor:
         gate = KNNSupportGate.from_dict(files.read_json(model_files["gate"]))
         for name, model in (("surrogate", surrogate), ("gate", gate)):
             if input_names(model) is not None and input_names(model) != inputs:
-                raise ValueError(f"{model_files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}")
-        return cls(inputs=inputs, target=spec["target"], unit=spec["unit"], csv=data.CsvFormat(**spec["csv"]),
-                   doe_range={name: tuple(bounds) for name, bounds in spec["doe_range"].items()},
-                   surrogate=surrogate, gate=gate,
-                   residual_filtered=_xgb(model_files["residual_filtered"], inputs),
-                   residual_unfiltered=_xgb(model_files["residual_unfiltered"], inputs),
-                   extension=DiscrepancyExtension.from_dict(files.read_json(model_files["extension"])),
-                   remainder=_xgb(model_files["remainder"], inputs),
-                   intervals=intervals.RegionIntervals.from_dict(spec["intervals"]), level=float(spec["level"]),
-                   peers={kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS})
+                raise ValueError(
+                    f"{model_files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}"
+                )
+        return cls(
+            inputs=inputs,
+            target=spec["target"],
+            unit=spec["unit"],
+            csv=data.CsvFormat(**spec["csv"]),
+            doe_range={name: tuple(bounds) for name, bounds in spec["doe_range"].items()},
+            surrogate=surrogate,
+            gate=gate,
+            residual_filtered=_xgb(model_files["residual_filtered"], inputs),
+            residual_unfiltered=_xgb(model_files["residual_unfiltered"], inputs),
+            extension=DiscrepancyExtension.from_dict(files.read_json(model_files["extension"])),
+            remainder=_xgb(model_files["remainder"], inputs),
+            intervals=intervals.RegionIntervals.from_dict(spec["intervals"]),
+            level=float(spec["level"]),
+            peers={kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS},
+        )
 
     def _inputs(self, frame: pd.DataFrame) -> pd.DataFrame:
         missing = [name for name in self.inputs if name not in frame.columns]
         if missing:
-            raise data.InputError(f"the what-if table has no input column {', '.join(map(repr, missing))}; "
-                                  f"the models need {', '.join(self.inputs)}")
+            raise data.InputError(
+                f"the what-if table has no input column {', '.join(map(repr, missing))}; "
+                f"the models need {', '.join(self.inputs)}"
+            )
         return frame[self.inputs].astype(float)
 
     def predictions(self, frame: pd.DataFrame, in_support=None, with_peers: bool = True) -> dict[str, np.ndarray]:
@@ -126,17 +182,27 @@ class Predictor:
         filtered = self.residual_filtered.predict(X)
         lacking = sorted(self.extension.columns - set(frame.columns))
         if lacking:
-            log.warning("no column %s in the table: the extension (whose causes need it) gives no prediction",
-                        ", ".join(lacking))
+            log.warning(
+                "no column %s in the table: the extension (whose causes need it) gives no prediction",
+                ", ".join(lacking),
+            )
             extended = np.full(len(frame), np.nan)
         else:
             extended = surrogate + self.extension.predict(frame)
-        out = {"surrogate": surrogate, "surrogate_std": std,
-               "hybrid_gated": np.where(inside, surrogate + filtered, surrogate), "hybrid": surrogate + filtered,
-               "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
-               "extended": extended, "extended_hybrid": extended + self.remainder.predict(X)}
-        out.update(peers.predictions_at(self.peers, X, surrogate) if with_peers
-                   else {kind: np.full(len(X), np.nan) for kind in self.peers})
+        out = {
+            "surrogate": surrogate,
+            "surrogate_std": std,
+            "hybrid_gated": np.where(inside, surrogate + filtered, surrogate),
+            "hybrid": surrogate + filtered,
+            "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
+            "extended": extended,
+            "extended_hybrid": extended + self.remainder.predict(X),
+        }
+        out.update(
+            peers.predictions_at(self.peers, X, surrogate)
+            if with_peers
+            else {kind: np.full(len(X), np.nan) for kind in self.peers}
+        )
         return out
 
     def predict(self, frame: pd.DataFrame, level: float | None = None, with_peers: bool = True) -> pd.DataFrame:
@@ -155,11 +221,15 @@ class Predictor:
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
         predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers), region)
-        answers = {"in_support": in_support, "knn_distance": distance,
-                   "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
-                   **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
-                   "in_domain": in_support & ~beyond_range, "region": region,
-                   **{f"pred_{model}": value for model, value in predictions.items()}}
+        answers = {
+            "in_support": in_support,
+            "knn_distance": distance,
+            "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
+            **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
+            "in_domain": in_support & ~beyond_range,
+            "region": region,
+            **{f"pred_{model}": value for model, value in predictions.items()},
+        }
         recommended = intervals.recommended_prediction(self.intervals, predictions, region, level)
         answers.update({column: recommended[column].to_numpy() for column in recommended})
         answers["interval_level"] = np.full(len(frame), level)
@@ -170,13 +240,19 @@ class Predictor:
             out[column] = answers[column]
         uncalibrated = ~np.isin(region, self.intervals.regions)
         if uncalibrated.any():
-            log.warning("%d row(s) in a region without calibration rows (the run had no production there): no "
-                        "interval, the paper's gated hybrid as the prediction", int(uncalibrated.sum()))
+            log.warning(
+                "%d row(s) in a region without calibration rows (the run had no production there): no "
+                "interval, the paper's gated hybrid as the prediction",
+                int(uncalibrated.sum()),
+            )
         if self.intervals.max_distance is not None and np.any(distance > self.intervals.max_distance):
-            log.warning("%d row(s) lie further from the DoE (kNN distance up to %.3g) than any production part the "
-                        "intervals were calibrated on (%.3g): their intervals may be too narrow",
-                        int(np.sum(distance > self.intervals.max_distance)), float(distance.max()),
-                        self.intervals.max_distance)
+            log.warning(
+                "%d row(s) lie further from the DoE (kNN distance up to %.3g) than any production part the "
+                "intervals were calibrated on (%.3g): their intervals may be too narrow",
+                int(np.sum(distance > self.intervals.max_distance)),
+                float(distance.max()),
+                self.intervals.max_distance,
+            )
         return out
 
     def read(self, path, fmt: data.CsvFormat | None = None) -> pd.DataFrame:

@@ -2,6 +2,7 @@
 
 Kept apart from :mod:`hybridtwin.diagnosis`, which chooses the causes; this module only shows them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -33,22 +34,33 @@ def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20,
         y = partial_residual(result, result.y, -1)
         form_name = str(result.table.set_index("cause").loc[name, "form"])
         form = fit_form(form_name, candidate.values, y)
-    profile = {"name": name, "kind": candidate.kind, "form": form.name, "description": form.describe(name),
-               "selected": name in chosen}
+    profile = {
+        "name": name,
+        "kind": candidate.kind,
+        "form": form.name,
+        "description": form.describe(name),
+        "selected": name in chosen,
+    }
     if candidate.kind == "group":
         frame = pd.DataFrame({"level": candidate.values, "y": y})
         stats_ = frame.groupby("level")["y"].agg(["mean", "count", "std"]).sort_index()
-        profile.update(levels=stats_.index.tolist(), mean=stats_["mean"].to_numpy(),
-                       se=(stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
-                       fitted=form.predict(np.asarray(stats_.index)))
+        profile.update(
+            levels=stats_.index.tolist(),
+            mean=stats_["mean"].to_numpy(),
+            se=(stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
+            fitted=form.predict(np.asarray(stats_.index)),
+        )
         return profile
     x = candidate.values if candidate.kind != "interaction" else form.predict(candidate.values)
     if candidate.kind == "interaction":
         form = Identity()
     edges = np.unique(np.percentile(x, np.linspace(0, 100, n_bins + 1)))
     which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
-    binned = pd.DataFrame({"bin": which, "x": x, "y": y}).groupby("bin").agg(
-        center=("x", "mean"), mean=("y", "mean"), std=("y", "std"), count=("y", "size"))
+    binned = (
+        pd.DataFrame({"bin": which, "x": x, "y": y})
+        .groupby("bin")
+        .agg(center=("x", "mean"), mean=("y", "mean"), std=("y", "std"), count=("y", "size"))
+    )
     binned["se"] = binned["std"].fillna(0) / np.sqrt(binned["count"])
     grid = np.linspace(x.min(), x.max(), 200)
     rng = np.random.default_rng(seed)
@@ -57,9 +69,15 @@ def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20,
         pick = rng.choice(len(y), min(len(y), 4000), replace=True)
         curves.append(fit_form(form.name, x[pick], y[pick]).predict(grid))
     curve = form.predict(grid)
-    low, high = (np.percentile(curves, [2.5, 97.5], axis=0) if curves else (curve, curve))
-    profile.update(binned=binned, grid=grid, curve=curve, band_low=low, band_high=high,
-                   xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [mm]")
+    low, high = np.percentile(curves, [2.5, 97.5], axis=0) if curves else (curve, curve)
+    profile.update(
+        binned=binned,
+        grid=grid,
+        curve=curve,
+        band_low=low,
+        band_high=high,
+        xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [mm]",
+    )
     if candidate.kind == "time":
         profile["xlabel"] = f"{name}: hours since {candidate.origin}"
     return profile

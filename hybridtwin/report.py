@@ -1,4 +1,5 @@
 """results/diagnosis.md: the diagnosis in words, for process and simulation engineers."""
+
 from __future__ import annotations
 
 import html
@@ -7,9 +8,13 @@ import re
 import pandas as pd
 
 # the report's words for the gain table's columns
-HEADERS = {"rmse_in_support_cv": "in support (CV)", "rmse_out_of_support": "out of support",
-           "rmse_matched": "matched cases", "rmse_truth_in_support_cv": "vs truth, in support (CV)",
-           "rmse_truth_out_of_support": "vs truth, out of support"}
+HEADERS = {
+    "rmse_in_support_cv": "in support (CV)",
+    "rmse_out_of_support": "out of support",
+    "rmse_matched": "matched cases",
+    "rmse_truth_in_support_cv": "vs truth, in support (CV)",
+    "rmse_truth_out_of_support": "vs truth, out of support",
+}
 
 
 def text(value) -> str:
@@ -32,77 +37,127 @@ def _fmt(value, digits: int = 2) -> str:
     return "n/a" if pd.isna(value) else f"{value:.{digits}f}"
 
 
-def diagnosis_markdown(causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, target: str, unit: str,
-                       demo_spec: dict | None = None) -> str:
+def diagnosis_markdown(
+    causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, target: str, unit: str, demo_spec: dict | None = None
+) -> str:
     offset = summary["offset"]
     unit = text(unit)
     lines = [f"# What the simulation gets wrong: {code(target)}", ""]
     n_in_support = summary.get("n_in_support", summary["n_rows"])
-    sample = (f"a seeded random sample of {summary['n_rows']:,} of the {n_in_support:,} in-support production parts "
-              "(diagnosis.max_rows)" if summary["n_rows"] < n_in_support
-              else f"{summary['n_rows']:,} in-support production parts")
-    lines += [f"Data: {sample} (approximate residuals "
-              f"r = measured − surrogate). Residual spread after the offset: {summary['residual_std']:.2f} {unit} (std). "
-              f"The surrogate's own uncertainty on these parts is {summary['surrogate_std']:.2f} {unit}; a cause must "
-              f"move the residual by more than {summary['min_effect']:.2f} {unit} (std) to count, or it could be "
-              "the surrogate's error rather than the plant's.", ""]
+    sample = (
+        f"a seeded random sample of {summary['n_rows']:,} of the {n_in_support:,} in-support production parts "
+        "(diagnosis.max_rows)"
+        if summary["n_rows"] < n_in_support
+        else f"{summary['n_rows']:,} in-support production parts"
+    )
+    lines += [
+        f"Data: {sample} (approximate residuals "
+        f"r = measured − surrogate). Residual spread after the offset: {summary['residual_std']:.2f} {unit} (std). "
+        f"The surrogate's own uncertainty on these parts is {summary['surrogate_std']:.2f} {unit}; a cause must "
+        f"move the residual by more than {summary['min_effect']:.2f} {unit} (std) to count, or it could be "
+        "the surrogate's error rather than the plant's.",
+        "",
+    ]
     direction = "more" if offset > 0 else "less"
-    lines += ["## Offset", "",
-              f"On average the plant draws in **{abs(offset):.2f} {unit} {direction}** than simulated "
-              f"(± {2 * summary['offset_se']:.2f} {unit}, 2 standard errors over blocks of consecutive parts).", ""]
+    lines += [
+        "## Offset",
+        "",
+        f"On average the plant draws in **{abs(offset):.2f} {unit} {direction}** than simulated "
+        f"(± {2 * summary['offset_se']:.2f} {unit}, 2 standard errors over blocks of consecutive parts).",
+        "",
+    ]
     selected = summary["selected"]
     lines += ["## Causes", ""]
     if not selected:
-        lines += ["**No cause beyond the offset is significant.** No candidate column explains the in-support "
-                  "residual better on held-out parts than the offset alone, by more than the surrogate's own "
-                  "uncertainty. The simulation's error here is a constant offset (plus noise).", ""]
+        lines += [
+            "**No cause beyond the offset is significant.** No candidate column explains the in-support "
+            "residual better on held-out parts than the offset alone, by more than the surrogate's own "
+            "uncertainty. The simulation's error here is a constant offset (plus noise).",
+            "",
+        ]
         top = causes.iloc[0] if len(causes) else None
         if top is not None:
-            lines += [f"Strongest candidate, not significant: {code(top['cause'])} ({top['form']}, explains "
-                      f"{top['explained_share']:.1%} of the offset-free variance, p = {top['p_value']:.2g}).", ""]
+            lines += [
+                f"Strongest candidate, not significant: {code(top['cause'])} ({top['form']}, explains "
+                f"{top['explained_share']:.1%} of the offset-free variance, p = {top['p_value']:.2g}).",
+                "",
+            ]
     for rank, cause in enumerate(selected, start=1):
         row = causes.set_index("cause").loc[cause["name"]]
-        lines += [f"{rank}. **{code(cause['name'])}**, form *{cause['form']}* ({cause['family']}): "
-                  f"{text(cause['description'])}. "
-                  f"It explains {row['explained_share']:.1%} of the offset-free residual variance on its own "
-                  f"(held-out), changes the draw-in by {cause['effect_range']:.2f} {unit} peak to peak over the "
-                  f"data, p = {cause['p_value']:.2g}. Figure: `results/figures/cause_{rank}.png`."]
+        lines += [
+            f"{rank}. **{code(cause['name'])}**, form *{cause['form']}* ({cause['family']}): "
+            f"{text(cause['description'])}. "
+            f"It explains {row['explained_share']:.1%} of the offset-free residual variance on its own "
+            f"(held-out), changes the draw-in by {cause['effect_range']:.2f} {unit} peak to peak over the "
+            f"data, p = {cause['p_value']:.2g}. Figure: `results/figures/cause_{rank}.png`."
+        ]
     if selected:
         lines.append("")
     lines += ["## What could not be separated", ""]
     notes = []
     for cause, aliases in summary["aliases"].items():
         if aliases:
-            notes.append(f"- {code(cause)} cannot be told apart from {', '.join(code(a) for a in aliases)} in this "
-                         "data: each explains the residual as well as the other once either is in. More varied "
-                         "data (or a designed trial) is needed to decide.")
+            notes.append(
+                f"- {code(cause)} cannot be told apart from {', '.join(code(a) for a in aliases)} in this "
+                "data: each explains the residual as well as the other once either is in. More varied "
+                "data (or a designed trial) is needed to decide."
+            )
     for proxy, named in summary.get("proxies", {}).items():
-        notes.append(f"- {code(proxy)} is an id: it stands for whatever changes with it. {code(named['cause'])} accounts "
-                     f"for {named['share']:.0%} of the differences between its levels, so {code(named['cause'])} is "
-                     "named as the cause.")
+        notes.append(
+            f"- {code(proxy)} is an id: it stands for whatever changes with it. {code(named['cause'])} accounts "
+            f"for {named['share']:.0%} of the differences between its levels, so {code(named['cause'])} is "
+            "named as the cause."
+        )
     for other, cause in summary["explained_by"].items():
-        notes.append(f"- {code(other)} looks related on its own but adds nothing once {code(cause)} is in (a correlated "
-                     "neighbour, not the cause).")
+        notes.append(
+            f"- {code(other)} looks related on its own but adds nothing once {code(cause)} is in (a correlated "
+            "neighbour, not the cause)."
+        )
     lines += notes or ["- Nothing: the chosen causes were separated from their correlated neighbours."]
-    lines += ["", "## Gain of the extended model", "",
-              "extended = surrogate + offset + the terms above; extended hybrid = extended + XGBoost on what is left. "
-              f"RMSE in {unit}:", ""]
-    columns = [c for c in ("rmse_in_support_cv", "rmse_out_of_support", "rmse_matched",
-                           "rmse_truth_in_support_cv", "rmse_truth_out_of_support") if c in gain.columns]
+    lines += [
+        "",
+        "## Gain of the extended model",
+        "",
+        "extended = surrogate + offset + the terms above; extended hybrid = extended + XGBoost on what is left. "
+        f"RMSE in {unit}:",
+        "",
+    ]
+    columns = [
+        c
+        for c in (
+            "rmse_in_support_cv",
+            "rmse_out_of_support",
+            "rmse_matched",
+            "rmse_truth_in_support_cv",
+            "rmse_truth_out_of_support",
+        )
+        if c in gain.columns
+    ]
     lines.append("| model | " + " | ".join(HEADERS[c] for c in columns) + " |")
     lines.append("|---" * (len(columns) + 1) + "|")
     for row in gain.itertuples():
         lines.append(f"| {row.model} | " + " | ".join(_fmt(getattr(row, c)) for c in columns) + " |")
     by_model = gain.set_index("model")
-    hybrid_out, extended_out = by_model.loc["hybrid", "rmse_out_of_support"], by_model.loc["extended", "rmse_out_of_support"]
-    lines += ["", f"Out of the support, where the black-box correction is not trusted, the extended model's RMSE is "
-              f"{_fmt(extended_out)} {unit} against {_fmt(hybrid_out)} {unit} for the paper's hybrid "
-              f"(filtered-train, no gate): "
-              + (f"{1 - extended_out / hybrid_out:.0%} lower." if extended_out < hybrid_out else "no gain."), ""]
+    hybrid_out, extended_out = (
+        by_model.loc["hybrid", "rmse_out_of_support"],
+        by_model.loc["extended", "rmse_out_of_support"],
+    )
+    lines += [
+        "",
+        f"Out of the support, where the black-box correction is not trusted, the extended model's RMSE is "
+        f"{_fmt(extended_out)} {unit} against {_fmt(hybrid_out)} {unit} for the paper's hybrid "
+        f"(filtered-train, no gate): "
+        + (f"{1 - extended_out / hybrid_out:.0%} lower." if extended_out < hybrid_out else "no gain."),
+        "",
+    ]
     lines.append(f"Evaluated on: {gain['evaluated_on'].iloc[0]}.")
     if demo_spec is not None:
-        lines += ["", "## Demo check", "",
-                  f"The demo plant hides: {demo_spec['hidden_effect_text']}, on top of an offset of "
-                  f"{demo_spec['offset_mm']:g} {unit}; measurement noise {demo_spec['noise_mm']:g} {unit} "
-                  "(the noise floor of any RMSE against measurements)."]
+        lines += [
+            "",
+            "## Demo check",
+            "",
+            f"The demo plant hides: {demo_spec['hidden_effect_text']}, on top of an offset of "
+            f"{demo_spec['offset_mm']:g} {unit}; measurement noise {demo_spec['noise_mm']:g} {unit} "
+            "(the noise floor of any RMSE against measurements).",
+        ]
     return "\n".join(lines) + "\n"

@@ -5,6 +5,7 @@ declared outputs, named by a fingerprint of the data and the settings: an
 interrupted run resumes the same study and keeps its finished trials, while a
 run on enriched data starts a fresh study.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -35,10 +36,15 @@ DEFAULT_SEARCH_SPACE: dict[str, dict] = {
 }
 
 PARAMETER_LABELS = {
-    "n_estimators": "Number of boosting rounds", "max_depth": "Maximum tree depth",
-    "learning_rate": "Shrinkage factor", "subsample": "Row sampling ratio",
-    "colsample_bytree": "Feature sampling ratio", "min_child_weight": "Minimum child weight",
-    "gamma": "Minimum split loss", "reg_alpha": "L1 regularization", "reg_lambda": "L2 regularization",
+    "n_estimators": "Number of boosting rounds",
+    "max_depth": "Maximum tree depth",
+    "learning_rate": "Shrinkage factor",
+    "subsample": "Row sampling ratio",
+    "colsample_bytree": "Feature sampling ratio",
+    "min_child_weight": "Minimum child weight",
+    "gamma": "Minimum split loss",
+    "reg_alpha": "L1 regularization",
+    "reg_lambda": "L2 regularization",
 }
 
 
@@ -51,9 +57,13 @@ def suggest(trial: optuna.Trial, space: dict[str, dict]) -> dict:
     params = {}
     for name, spec in space.items():
         if spec["type"] == "int":
-            params[name] = trial.suggest_int(name, int(spec["low"]), int(spec["high"]), log=bool(spec.get("log", False)))
+            params[name] = trial.suggest_int(
+                name, int(spec["low"]), int(spec["high"]), log=bool(spec.get("log", False))
+            )
         else:
-            params[name] = trial.suggest_float(name, float(spec["low"]), float(spec["high"]), log=bool(spec.get("log", False)))
+            params[name] = trial.suggest_float(
+                name, float(spec["low"]), float(spec["high"]), log=bool(spec.get("log", False))
+            )
     return params
 
 
@@ -88,8 +98,19 @@ def journal_lock(storage: str) -> optuna.storages.journal.JournalFileSymlinkLock
     return optuna.storages.journal.JournalFileSymlinkLock(str(Path(storage).resolve()), grace_period=LOCK_GRACE_S)
 
 
-def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: dict | None = None,
-         study_prefix: str = "residual", n_jobs: int = 1, warm_start: int = 0) -> optuna.Study:
+def tune(
+    X,
+    y,
+    *,
+    n_trials: int,
+    n_folds: int,
+    seed: int,
+    storage: str,
+    space: dict | None = None,
+    study_prefix: str = "residual",
+    n_jobs: int = 1,
+    warm_start: int = 0,
+) -> optuna.Study:
     """Run (or resume) the TPE study until it holds ``n_trials`` finished trials.
 
     ``warm_start``: a new study (new data, say an enriched DoE) first tries the best ``warm_start``
@@ -99,9 +120,14 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
     X, y = np.asarray(X, float), np.asarray(y, float)
     name = f"{study_prefix}-{fingerprint(X, y, space, n_folds, seed)}"
     opened = open_storage(storage)
-    study = optuna.create_study(study_name=name, storage=opened, direction="minimize",
-                                sampler=optuna.samplers.TPESampler(seed=seed), load_if_exists=True,
-                                pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0))
+    study = optuna.create_study(
+        study_name=name,
+        storage=opened,
+        direction="minimize",
+        sampler=optuna.samplers.TPESampler(seed=seed),
+        load_if_exists=True,
+        pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
+    )
     if warm_start and not study.trials:
         for params in earlier_best(opened, name, study_prefix, space, warm_start):
             study.enqueue_trial(params)
@@ -124,8 +150,11 @@ def tune(X, y, *, n_trials: int, n_folds: int, seed: int, storage: str, space: d
 
     if done < n_trials:
         # the callback stops every worker sharing the study once enough trials have finished
-        study.optimize(objective, n_trials=n_trials - done,
-                       callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED), progress(n_trials)])
+        study.optimize(
+            objective,
+            n_trials=n_trials - done,
+            callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED), progress(n_trials)],
+        )
     return study
 
 
@@ -135,8 +164,12 @@ def progress(n_trials: int):
     def report(study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
         finished = _complete(study)
         if trial.state == optuna.trial.TrialState.PRUNED:
-            value = trial.intermediate_values[max(trial.intermediate_values)] if trial.intermediate_values else float("nan")
-            outcome = f"stopped early at fold {max(trial.intermediate_values, default=0) + 1} (running CV RMSE {value:.4g})"
+            value = (
+                trial.intermediate_values[max(trial.intermediate_values)] if trial.intermediate_values else float("nan")
+            )
+            outcome = (
+                f"stopped early at fold {max(trial.intermediate_values, default=0) + 1} (running CV RMSE {value:.4g})"
+            )
         elif trial.state == optuna.trial.TrialState.COMPLETE:
             outcome = f"CV RMSE {trial.value:.4g}"
         else:
@@ -145,8 +178,14 @@ def progress(n_trials: int):
             best = f"best so far {study.best_value:.4g} (trial {study.best_trial.number})"
         except ValueError:
             best = "no complete trial yet"
-        log.info("tuning: trial %d finished, %d of %d: %s; %s", trial.number, min(finished, n_trials), n_trials,
-                 outcome, best)
+        log.info(
+            "tuning: trial %d finished, %d of %d: %s; %s",
+            trial.number,
+            min(finished, n_trials),
+            n_trials,
+            outcome,
+            best,
+        )
 
     return report
 
@@ -160,16 +199,21 @@ def _inside(params: dict, space: dict) -> bool:
 
 def earlier_best(storage, name: str, prefix: str, space: dict, n: int) -> list[dict]:
     """The best ``n`` completed parameter sets (inside ``space``) of the latest other study named ``prefix-*``."""
-    earlier = [s for s in optuna.get_all_study_summaries(storage, include_best_trial=False)
-               if s.study_name.startswith(f"{prefix}-") and s.study_name != name and s.datetime_start is not None]
+    earlier = [
+        s
+        for s in optuna.get_all_study_summaries(storage, include_best_trial=False)
+        if s.study_name.startswith(f"{prefix}-") and s.study_name != name and s.datetime_start is not None
+    ]
     if not earlier:
         return []
     latest = max(earlier, key=lambda s: s.datetime_start)
     trials = optuna.load_study(study_name=latest.study_name, storage=storage).get_trials(
-        deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+        deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)
+    )
     ranked = sorted((t for t in trials if _inside(t.params, space)), key=lambda t: (t.value, t.number))
-    log.info("warm start from study %s: its best %d of %d trials first", latest.study_name, min(n, len(ranked)),
-             len(trials))
+    log.info(
+        "warm start from study %s: its best %d of %d trials first", latest.study_name, min(n, len(ranked)), len(trials)
+    )
     return [dict(t.params) for t in ranked[:n]]
 
 
@@ -222,17 +266,35 @@ def search_space(overrides: dict | None) -> dict[str, dict]:
 
 def hyperparameter_table(params: dict, space: dict) -> pd.DataFrame:
     """Table 4: the chosen hyperparameters with the searched ranges."""
-    return pd.DataFrame([{"parameter": PARAMETER_LABELS[name], "xgboost_name": name, "value": params[name],
-                          "search_low": space[name]["low"], "search_high": space[name]["high"],
-                          "log_scale": bool(space[name].get("log", False))} for name in space])
+    return pd.DataFrame(
+        [
+            {
+                "parameter": PARAMETER_LABELS[name],
+                "xgboost_name": name,
+                "value": params[name],
+                "search_low": space[name]["low"],
+                "search_high": space[name]["high"],
+                "log_scale": bool(space[name].get("log", False)),
+            }
+            for name in space
+        ]
+    )
 
 
 def trials_table(study: optuna.Study) -> pd.DataFrame:
     trials = sorted(study.get_trials(deepcopy=False, states=FINISHED), key=lambda t: t.number)
-    return pd.DataFrame([{"trial": t.number, "state": t.state.name.lower(),
-                          # a pruned trial shows its running CV RMSE when it was stopped
-                          "cv_rmse": t.value if t.value is not None else t.intermediate_values[max(t.intermediate_values)],
-                          **t.params} for t in trials])
+    return pd.DataFrame(
+        [
+            {
+                "trial": t.number,
+                "state": t.state.name.lower(),
+                # a pruned trial shows its running CV RMSE when it was stopped
+                "cv_rmse": t.value if t.value is not None else t.intermediate_values[max(t.intermediate_values)],
+                **t.params,
+            }
+            for t in trials
+        ]
+    )
 
 
 def evaluation_seed(seed: int) -> int:

@@ -4,6 +4,7 @@ It takes Snakemake's ``snakemake`` object as a plain object (input, output,
 params, log, threads, config) and never imports snakemake, so the package can be
 used and tested without it.
 """
+
 from __future__ import annotations
 
 import logging
@@ -21,8 +22,9 @@ def run(snakemake, main) -> None:
     handlers = [logging.StreamHandler(sys.stderr)]
     if getattr(snakemake, "log", None):
         handlers.append(logging.FileHandler(snakemake.log[0], mode="w"))
-    logging.basicConfig(level=logging.INFO, handlers=handlers, force=True,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO, handlers=handlers, force=True, format="%(asctime)s %(levelname)s %(name)s: %(message)s"
+    )
     logging.captureWarnings(True)
     warnings.simplefilter("default")
     for noisy in ("matplotlib", "PIL", "optuna"):

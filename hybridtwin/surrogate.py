@@ -4,6 +4,7 @@ The model file is JSON: the fitted kernel hyperparameters and the training
 data. Loading rebuilds the same GaussianProcessRegressor with the optimizer
 switched off, which reproduces the fitted posterior exactly; nothing is pickled.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,8 +19,14 @@ from .gate import DoEStandardizer, input_names, remember_inputs, restore_inputs
 class GPRSurrogate(RegressorMixin, BaseEstimator):
     """Inputs are standardized with the statistics of the training (DoE) rows."""
 
-    def __init__(self, nu: float = 2.5, n_restarts: int = 3, random_state: int = 0,
-                 length_scale_bounds: tuple[float, float] = (1e-2, 1e4), noise_bounds: tuple[float, float] = (1e-6, 1.0)):
+    def __init__(
+        self,
+        nu: float = 2.5,
+        n_restarts: int = 3,
+        random_state: int = 0,
+        length_scale_bounds: tuple[float, float] = (1e-2, 1e4),
+        noise_bounds: tuple[float, float] = (1e-6, 1.0),
+    ):
         self.nu = nu
         self.n_restarts = n_restarts
         self.random_state = random_state
@@ -28,16 +35,20 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
 
     def _kernel(self, n_features: int):
         # normalize_y scales the target to unit variance, so these bounds are in those units
-        return (ConstantKernel(1.0, (1e-3, 1e3))
-                * Matern(length_scale=np.full(n_features, 3.0), length_scale_bounds=self.length_scale_bounds, nu=self.nu)
-                + WhiteKernel(1e-2, self.noise_bounds))
+        return ConstantKernel(1.0, (1e-3, 1e3)) * Matern(
+            length_scale=np.full(n_features, 3.0), length_scale_bounds=self.length_scale_bounds, nu=self.nu
+        ) + WhiteKernel(1e-2, self.noise_bounds)
 
     def fit(self, X, y):
         remember_inputs(self, X)
         self.standardizer_ = DoEStandardizer().fit(X)
         self.n_features_in_ = self.standardizer_.n_features_in_
-        self.gpr_ = GaussianProcessRegressor(self._kernel(self.n_features_in_), normalize_y=True,
-                                             n_restarts_optimizer=self.n_restarts, random_state=self.random_state)
+        self.gpr_ = GaussianProcessRegressor(
+            self._kernel(self.n_features_in_),
+            normalize_y=True,
+            n_restarts_optimizer=self.n_restarts,
+            random_state=self.random_state,
+        )
         self.gpr_.fit(self.standardizer_.transform(X), np.asarray(y, float))
         return self
 
@@ -52,12 +63,17 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
 
     def to_dict(self) -> dict:
         check_is_fitted(self, "gpr_")
-        return {"format": "hybridtwin.GPRSurrogate/1", "params": self.get_params(), "inputs": input_names(self),
-                "kernel": repr(self.gpr_.kernel_), "theta": self.gpr_.kernel_.theta.tolist(),
-                "standardizer": self.standardizer_.to_dict(),
-                "X_train": self.gpr_.X_train_.tolist(),
-                "y_train": (self.gpr_.y_train_ * self.gpr_._y_train_std + self.gpr_._y_train_mean).tolist(),
-                "noise_std": self.noise_std_}
+        return {
+            "format": "hybridtwin.GPRSurrogate/1",
+            "params": self.get_params(),
+            "inputs": input_names(self),
+            "kernel": repr(self.gpr_.kernel_),
+            "theta": self.gpr_.kernel_.theta.tolist(),
+            "standardizer": self.standardizer_.to_dict(),
+            "X_train": self.gpr_.X_train_.tolist(),
+            "y_train": (self.gpr_.y_train_ * self.gpr_._y_train_std + self.gpr_._y_train_mean).tolist(),
+            "noise_std": self.noise_std_,
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "GPRSurrogate":

@@ -1,5 +1,6 @@
 """The paper's tables built from the workflow's predictions: Table 1 (data sets), Table 5 (sensitivity
 to filtering and gating), the matched-case check and the production predictions table."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,22 +12,45 @@ from .hybrid import gated
 from .metrics import rmse, scores
 
 
-def dataset_summary(n_doe: int, n_production: int, n_in_support: int, n_matched: int, k: int,
-                    percentile: float) -> pd.DataFrame:
+def dataset_summary(
+    n_doe: int, n_production: int, n_in_support: int, n_matched: int, k: int, percentile: float
+) -> pd.DataFrame:
     """Table 1: the data sets and their roles."""
-    return pd.DataFrame([
-        {"dataset": "Numerical DoE", "role": "Train surrogate y_FEM_hat", "size": n_doe,
-         "notes": "simulated target; also defines the standardization and the support"},
-        {"dataset": "Production (all)", "role": "Unfiltered-train comparison (Table 5)", "size": n_production,
-         "notes": "measured target"},
-        {"dataset": "Production in-support subset", "role": "Train/validate residual model r_hat",
-         "size": n_in_support,
-         "notes": f"kNN support gate: k={k}, threshold = {percentile:g}th percentile of DoE leave-one-out distances"},
-        {"dataset": "Production out-of-support", "role": "Evaluation only (Table 5)",
-         "size": n_production - n_in_support, "notes": "never used to train the filtered residual model"},
-        {"dataset": "Matched cases (reserved)", "role": "External check", "size": n_matched,
-         "notes": "true residuals; never used for training or tuning"},
-    ])
+    return pd.DataFrame(
+        [
+            {
+                "dataset": "Numerical DoE",
+                "role": "Train surrogate y_FEM_hat",
+                "size": n_doe,
+                "notes": "simulated target; also defines the standardization and the support",
+            },
+            {
+                "dataset": "Production (all)",
+                "role": "Unfiltered-train comparison (Table 5)",
+                "size": n_production,
+                "notes": "measured target",
+            },
+            {
+                "dataset": "Production in-support subset",
+                "role": "Train/validate residual model r_hat",
+                "size": n_in_support,
+                "notes": f"kNN support gate: k={k}, threshold = {percentile:g}th percentile of DoE "
+                "leave-one-out distances",
+            },
+            {
+                "dataset": "Production out-of-support",
+                "role": "Evaluation only (Table 5)",
+                "size": n_production - n_in_support,
+                "notes": "never used to train the filtered residual model",
+            },
+            {
+                "dataset": "Matched cases (reserved)",
+                "role": "External check",
+                "size": n_matched,
+                "notes": "true residuals; never used for training or tuning",
+            },
+        ]
+    )
 
 
 def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
@@ -54,10 +78,12 @@ def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
         row.update({name: rmse(measured[mask], pred[mask]) for name, pred in strategies.items()})
         rows.append(row)
     table = pd.DataFrame(rows)
-    table["evaluated_on"] = ("measured production draw-in; residual models scored out-of-fold on their own "
-                             "training rows (a split other than the tuning's), the final filtered model on "
-                             "out-of-support rows; both residual models use the hyperparameters tuned on "
-                             "in-support rows")
+    table["evaluated_on"] = (
+        "measured production draw-in; residual models scored out-of-fold on their own "
+        "training rows (a split other than the tuning's), the final filtered model on "
+        "out-of-support rows; both residual models use the hyperparameters tuned on "
+        "in-support rows"
+    )
     return table
 
 
@@ -78,21 +104,43 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
     rows = []
     for name, (reference, prediction) in comparisons.items():
         error = reference - prediction
-        rows.append({"comparison": name, "n": len(reference), **scores(reference, prediction),
-                     "error_mean": float(np.mean(error)),
-                     "error_std": float(np.std(error, ddof=1)) if len(error) > 1 else 0.0})
+        rows.append(
+            {
+                "comparison": name,
+                "n": len(reference),
+                **scores(reference, prediction),
+                "error_mean": float(np.mean(error)),
+                "error_std": float(np.std(error, ddof=1)) if len(error) > 1 else 0.0,
+            }
+        )
     summary = pd.DataFrame(rows)
     summary["evaluated_on"] = "matched cases only (never used for training or tuning); error = reference - prediction"
-    cases = pd.DataFrame({"measured": measured, "simulated": simulated, "pred_surrogate": surrogate,
-                          "pred_hybrid": hybrid, "pred_hybrid_gated": hybrid_gated,
-                          "true_residual": true_residual, "pred_residual": residual_pred,
-                          "error_simulation": measured - simulated, "error_surrogate": measured - surrogate,
-                          "error_hybrid": measured - hybrid, "error_hybrid_gated": measured - hybrid_gated})
+    cases = pd.DataFrame(
+        {
+            "measured": measured,
+            "simulated": simulated,
+            "pred_surrogate": surrogate,
+            "pred_hybrid": hybrid,
+            "pred_hybrid_gated": hybrid_gated,
+            "true_residual": true_residual,
+            "pred_residual": residual_pred,
+            "error_simulation": measured - simulated,
+            "error_surrogate": measured - surrogate,
+            "error_hybrid": measured - hybrid,
+            "error_hybrid_gated": measured - hybrid_gated,
+        }
+    )
     return summary, cases
 
 
-def production_predictions(residuals: pd.DataFrame, support: pd.DataFrame, filtered: np.ndarray,
-                           unfiltered: np.ndarray, filtered_oof: pd.DataFrame, unfiltered_oof: pd.DataFrame) -> pd.DataFrame:
+def production_predictions(
+    residuals: pd.DataFrame,
+    support: pd.DataFrame,
+    filtered: np.ndarray,
+    unfiltered: np.ndarray,
+    filtered_oof: pd.DataFrame,
+    unfiltered_oof: pd.DataFrame,
+) -> pd.DataFrame:
     """One row per production row: support, surrogate, residual models and hybrids.
 
     ``pred_hybrid`` uses the final filtered-train model (no gate); the ``*_oof``
@@ -104,13 +152,20 @@ def production_predictions(residuals: pd.DataFrame, support: pd.DataFrame, filte
     inside = in_support(support)
     filtered_cv = splice_out_of_fold(filtered, filtered_oof["row"], filtered_oof["pred_residual_oof"])
     unfiltered_cv = splice_out_of_fold(np.full(n, np.nan), unfiltered_oof["row"], unfiltered_oof["pred_residual_oof"])
-    return pd.DataFrame({
-        "row": np.arange(n), "in_support": inside, "knn_distance": support["knn_distance"].to_numpy(float),
-        "measured": residuals["measured"].to_numpy(float),
-        "pred_surrogate": surrogate, "pred_surrogate_std": residuals["pred_surrogate_std"].to_numpy(float),
-        "residual_approx": residuals["residual_approx"].to_numpy(float),
-        "pred_residual": filtered, "pred_hybrid": surrogate + filtered,
-        "pred_hybrid_gated": gated(surrogate, filtered, inside),
-        "pred_hybrid_unfiltered": surrogate + unfiltered,
-        "pred_hybrid_oof": surrogate + filtered_cv, "pred_hybrid_unfiltered_oof": surrogate + unfiltered_cv,
-    })
+    return pd.DataFrame(
+        {
+            "row": np.arange(n),
+            "in_support": inside,
+            "knn_distance": support["knn_distance"].to_numpy(float),
+            "measured": residuals["measured"].to_numpy(float),
+            "pred_surrogate": surrogate,
+            "pred_surrogate_std": residuals["pred_surrogate_std"].to_numpy(float),
+            "residual_approx": residuals["residual_approx"].to_numpy(float),
+            "pred_residual": filtered,
+            "pred_hybrid": surrogate + filtered,
+            "pred_hybrid_gated": gated(surrogate, filtered, inside),
+            "pred_hybrid_unfiltered": surrogate + unfiltered,
+            "pred_hybrid_oof": surrogate + filtered_cv,
+            "pred_hybrid_unfiltered_oof": surrogate + unfiltered_cv,
+        }
+    )

@@ -1,4 +1,5 @@
 """Write the demo plant's CSVs and its noise-free truth."""
+
 from hybridtwin import demo, files
 from hybridtwin.runner import run
 

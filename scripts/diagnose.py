@@ -1,4 +1,5 @@
 """Diagnosis: rank candidate causes of the in-support approximate residuals; a figure per top cause."""
+
 import logging
 
 from hybridtwin import diagnosis, files, plots, profiles
@@ -12,12 +13,18 @@ def main(snakemake):
     production = read_checked(snakemake.input.production)
     residuals = read_checked(snakemake.input.residuals)
     inside = in_support(residuals)
-    surrogate_std = surrogate_latent_std(residuals.loc[inside, "pred_surrogate_std"],
-                                         files.read_json(snakemake.input.surrogate)["noise_std"])
+    surrogate_std = surrogate_latent_std(
+        residuals.loc[inside, "pred_surrogate_std"], files.read_json(snakemake.input.surrogate)["noise_std"]
+    )
     settings = diagnosis.Settings.from_config(p.settings, folds=p.folds, seed=p.seed, n_jobs=snakemake.threads)
-    result = diagnosis.diagnose(production.loc[inside].drop(columns=[p.target]),
-                                residuals.loc[inside, "residual_approx"], p.inputs, [p.target], settings,
-                                surrogate_std=surrogate_std)
+    result = diagnosis.diagnose(
+        production.loc[inside].drop(columns=[p.target]),
+        residuals.loc[inside, "residual_approx"],
+        p.inputs,
+        [p.target],
+        settings,
+        surrogate_std=surrogate_std,
+    )
     logging.info("offset %.3f; chosen causes: %s", result.offset, [f.candidate.name for f in result.selected])
     files.write_csv(result.table, snakemake.output.table)
     # the ranking may use a sample of the in-support parts: the report says so

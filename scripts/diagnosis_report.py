@@ -1,4 +1,5 @@
 """results/diagnosis.md: what the simulation gets wrong, in words, with numbers and units."""
+
 from hybridtwin import files, report
 from hybridtwin.files import read_checked
 from hybridtwin.runner import run
@@ -6,9 +7,14 @@ from hybridtwin.runner import run
 
 def main(snakemake):
     spec = files.read_json(snakemake.input.demo_spec) if snakemake.input.get("demo_spec") else None
-    text = report.diagnosis_markdown(read_checked(snakemake.input.causes), files.read_json(snakemake.input.summary),
-                                     read_checked(snakemake.input.gain), snakemake.params.target,
-                                     snakemake.params.unit, spec)
+    text = report.diagnosis_markdown(
+        read_checked(snakemake.input.causes),
+        files.read_json(snakemake.input.summary),
+        read_checked(snakemake.input.gain),
+        snakemake.params.target,
+        snakemake.params.unit,
+        spec,
+    )
     with files.atomic_path(snakemake.output.report) as temporary:
         temporary.write_text(text)
 

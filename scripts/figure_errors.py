@@ -1,4 +1,5 @@
 """Step 8: Figure 3, error distributions of surrogate and hybrid, in support (out-of-fold) and on matched cases."""
+
 from hybridtwin import files, plots
 from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
@@ -11,7 +12,8 @@ def main(snakemake):
     groups = {
         f"production in support (n={len(inside):,}), hybrid out-of-fold": {
             "surrogate": inside["measured"] - inside["pred_surrogate"],
-            "hybrid": inside["measured"] - inside["pred_hybrid_oof"]},
+            "hybrid": inside["measured"] - inside["pred_hybrid_oof"],
+        },
         f"matched cases (n={len(cases)})": {"surrogate": cases["error_surrogate"], "hybrid": cases["error_hybrid"]},
     }
     files.save_figure(plots.error_distributions(groups), snakemake.output.figure)

@@ -1,4 +1,5 @@
 """Step 7: external check on the matched cases -> matched_check.csv, per-case table, Figure 2."""
+
 import numpy as np
 
 from hybridtwin import files, plots, residual
@@ -15,8 +16,9 @@ def main(snakemake):
     X = matched[p.inputs].to_numpy(float)
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate)).predict(X)
     residual_pred = residual.load_model(snakemake.input.model).predict(X)
-    summary, cases = matched_summary(matched[p.matched_measured], matched[p.matched_simulated], surrogate,
-                                     residual_pred, in_support(support))
+    summary, cases = matched_summary(
+        matched[p.matched_measured], matched[p.matched_simulated], surrogate, residual_pred, in_support(support)
+    )
     cases.insert(0, "in_support", in_support(support))
     cases.insert(0, "matched_row", np.arange(1, len(matched) + 1))
     files.write_csv(summary, snakemake.output.summary)
@@ -25,10 +27,16 @@ def main(snakemake):
     predictions = read_checked(snakemake.input.predictions)
     inside = predictions[in_support(predictions)]
     residual_row = summary.iloc[0]
-    files.save_figure(plots.residual_check(inside["residual_approx"], inside["pred_hybrid_oof"] - inside["pred_surrogate"],
-                                        cases["true_residual"], cases["pred_residual"],
-                                        {"r2": residual_row["r2"], "rmse": residual_row["rmse"]}),
-                   snakemake.output.figure)
+    files.save_figure(
+        plots.residual_check(
+            inside["residual_approx"],
+            inside["pred_hybrid_oof"] - inside["pred_surrogate"],
+            cases["true_residual"],
+            cases["pred_residual"],
+            {"r2": residual_row["r2"], "rmse": residual_row["rmse"]},
+        ),
+        snakemake.output.figure,
+    )
 
 
 run(snakemake, main)

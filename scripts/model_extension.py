@@ -1,4 +1,5 @@
 """Extend the physics side with the diagnosed causes; measure the gain in and out of the support."""
+
 import pandas as pd
 
 from hybridtwin import extension, files, residual
@@ -20,14 +21,30 @@ def main(snakemake):
 
     # the same folds as the hybrid's out-of-fold predictions (rule residual_cv)
     splits = folds(int(residuals["in_support"].sum()), p.folds, residual.evaluation_seed(p.seed))
-    result = extension.evaluate(read_checked(snakemake.input.production), residuals, read_checked(snakemake.input.hybrid),
-                                matched, read_checked(snakemake.input.matched_cases), p.inputs, terms, make_xgb, splits)
+    result = extension.evaluate(
+        read_checked(snakemake.input.production),
+        residuals,
+        read_checked(snakemake.input.hybrid),
+        matched,
+        read_checked(snakemake.input.matched_cases),
+        p.inputs,
+        terms,
+        make_xgb,
+        splits,
+    )
     truth = noise = None
     if snakemake.input.get("truth"):
         truth = read_checked(snakemake.input.truth)["truth_mm"].to_numpy(float)
         noise = float(files.read_json(snakemake.input.demo_spec)["noise_mm"])
-    table = extension.gain_table(residuals["measured"], result.scored, in_support(residuals),
-                                 matched[p.matched_measured], result.matched, truth, noise)
+    table = extension.gain_table(
+        residuals["measured"],
+        result.scored,
+        in_support(residuals),
+        matched[p.matched_measured],
+        result.matched,
+        truth,
+        noise,
+    )
     files.write_csv(table, snakemake.output.table)
     files.write_json(result.models.extension.to_dict(), snakemake.output.extension)
     residual.save_model(result.models.remainder, snakemake.output.remainder, p.inputs)

@@ -1,4 +1,5 @@
 """An established peer of the hybrid (GP discrepancy or co-kriging), fitted on the DoE and the in-support parts."""
+
 import logging
 
 from hybridtwin import files, peers
@@ -9,8 +10,16 @@ from hybridtwin.runner import run
 def main(snakemake):
     p = snakemake.params
     kind = snakemake.wildcards.peer
-    fit = peers.fit_peer(kind, read_checked(snakemake.input.doe), read_checked(snakemake.input.production),
-                         read_checked(snakemake.input.residuals), p.inputs, p.target, p.settings, p.seed)
+    fit = peers.fit_peer(
+        kind,
+        read_checked(snakemake.input.doe),
+        read_checked(snakemake.input.production),
+        read_checked(snakemake.input.residuals),
+        p.inputs,
+        p.target,
+        p.settings,
+        p.seed,
+    )
     logging.info("%s: fitted on %d in-support parts in %.1f s", kind, fit.n_train, fit.fit_seconds)
     files.write_json(fit.model.to_dict(), snakemake.output.model)
     files.write_csv(fit.production, snakemake.output.predictions, float_format=None)

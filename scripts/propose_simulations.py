@@ -1,4 +1,5 @@
 """The next simulations: enrichment.n_points DoE points that bring the most production parts into the support."""
+
 import logging
 
 from hybridtwin import enrichment, files, plots
@@ -11,22 +12,35 @@ def main(snakemake):
     p = snakemake.params
     doe, production = read_checked(snakemake.input.doe), read_checked(snakemake.input.production)
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
-    settings = enrichment.EnrichmentSettings(n_points=p.settings["n_points"], recency_weight=p.settings["recency_weight"],
-                                             margin=p.settings["margin"], n_candidates=p.settings["n_candidates"],
-                                             seed=p.seed)
-    proposal = enrichment.propose(doe[p.inputs].to_numpy(float), production[p.inputs].to_numpy(float), p.k,
-                                  p.percentile, settings, surrogate_std=lambda X: surrogate.predict(X, return_std=True)[1])
+    settings = enrichment.EnrichmentSettings(
+        n_points=p.settings["n_points"],
+        recency_weight=p.settings["recency_weight"],
+        margin=p.settings["margin"],
+        n_candidates=p.settings["n_candidates"],
+        seed=p.seed,
+    )
+    proposal = enrichment.propose(
+        doe[p.inputs].to_numpy(float),
+        production[p.inputs].to_numpy(float),
+        p.k,
+        p.percentile,
+        settings,
+        surrogate_std=lambda X: surrogate.predict(X, return_std=True)[1],
+    )
     table = enrichment.proposals_table(proposal, production, p.inputs, len(production))
     if proposal.share_before == 1.0:
         logging.warning("every production part is already in the support: nothing to propose (empty table written)")
     elif len(table) < settings.n_points:
         logging.info("%d point(s) bring every part into the support; no more are proposed", len(table))
     files.write_csv(table, snakemake.output.table)
-    files.save_figure(plots.enrichment_share(proposal.share_before, proposal.share_after,
-                                          proposal.share_after_fixed_threshold, p.k), snakemake.output.share)
+    files.save_figure(
+        plots.enrichment_share(proposal.share_before, proposal.share_after, proposal.share_after_fixed_threshold, p.k),
+        snakemake.output.share,
+    )
     inside = in_support(read_checked(snakemake.input.support))
-    files.save_figure(plots.enrichment_map(doe[p.inputs], production[p.inputs], inside, table[p.inputs], p.seed),
-                   snakemake.output.map)
+    files.save_figure(
+        plots.enrichment_map(doe[p.inputs], production[p.inputs], inside, table[p.inputs], p.seed), snakemake.output.map
+    )
 
 
 run(snakemake, main)

@@ -3,6 +3,7 @@
 training=filtered: in-support rows only (the paper's model, Table 3).
 training=unfiltered: every production row (Table 5's comparison).
 """
+
 import pandas as pd
 
 from hybridtwin import files, residual
@@ -23,11 +24,19 @@ def main(snakemake):
     per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, residual.evaluation_seed(snakemake.params.seed))
     files.write_csv(per_fold, snakemake.output.folds)
     files.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
-    files.write_csv(cv_table(per_fold, y, oof, f"XGBoost residual model ({snakemake.wildcards.training} train)",
-                          f"approximate residuals of {len(y)} production rows "
-                          f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
-                          f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "
-                          "were tuned by CV on the in-support rows"), snakemake.output.table)
+    files.write_csv(
+        cv_table(
+            per_fold,
+            y,
+            oof,
+            f"XGBoost residual model ({snakemake.wildcards.training} train)",
+            f"approximate residuals of {len(y)} production rows "
+            f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
+            f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "
+            "were tuned by CV on the in-support rows",
+        ),
+        snakemake.output.table,
+    )
 
 
 run(snakemake, main)

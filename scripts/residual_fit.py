@@ -1,4 +1,5 @@
 """Step 6: retrain the residual model on all its training rows and freeze it (XGBoost JSON)."""
+
 from hybridtwin import files, residual
 from hybridtwin.files import read_checked
 from hybridtwin.runner import run

@@ -1,4 +1,5 @@
 """Step 9: Table 5, RMSE in and out of the support for the four prediction strategies."""
+
 from hybridtwin import files
 from hybridtwin.files import read_checked
 from hybridtwin.runner import run

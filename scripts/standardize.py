@@ -1,4 +1,5 @@
 """Step 1: input standardization with DoE statistics only."""
+
 import pandas as pd
 
 from hybridtwin import files
@@ -12,8 +13,10 @@ def main(snakemake):
     doe = read_checked(snakemake.input.doe)
     standardizer = DoEStandardizer().fit(doe[inputs])
     files.write_json(standardizer.to_dict(), snakemake.output.model)
-    files.write_csv(pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
-                 snakemake.output.table)
+    files.write_csv(
+        pd.DataFrame({"column": inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
+        snakemake.output.table,
+    )
 
 
 run(snakemake, main)

@@ -1,4 +1,5 @@
 """Step 2: kNN support gate; distance and in_support for every production row."""
+
 import pandas as pd
 
 from hybridtwin import data, files, plots
@@ -10,16 +11,20 @@ def main(snakemake):
     inputs = snakemake.params.inputs
     doe, production = (files.read_checked(snakemake.input[name]) for name in ("doe", "production"))
     standardizer = DoEStandardizer.from_dict(files.read_json(snakemake.input.standardization))
-    gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile,
-                          standardizer=standardizer).fit(doe[inputs])
+    gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile, standardizer=standardizer).fit(
+        doe[inputs]
+    )
     distance = gate.distance(production[inputs])
     support = pd.DataFrame({"knn_distance": distance, "in_support": gate.predict(production[inputs])})
-    data.check_support(support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths,
-                       gate.threshold_)
+    data.check_support(
+        support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths, gate.threshold_
+    )
     files.write_json(gate.to_dict(), snakemake.output.model)
     files.write_csv(support, snakemake.output.production)
-    files.save_figure(plots.support_distances(gate.doe_distances_, distance, gate.threshold_, snakemake.params.percentile),
-                   snakemake.output.figure)
+    files.save_figure(
+        plots.support_distances(gate.doe_distances_, distance, gate.threshold_, snakemake.params.percentile),
+        snakemake.output.figure,
+    )
 
 
 run(snakemake, main)

@@ -1,4 +1,5 @@
 """Step 3b: fit the GPR surrogate on the whole DoE and save it as JSON."""
+
 import logging
 
 from hybridtwin import files

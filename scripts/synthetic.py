@@ -14,8 +14,9 @@ def main(snakemake):
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
     model = residual.load_model(snakemake.input.model)
-    samples = sample_in_support(gate, doe[p.inputs].min().to_numpy(), doe[p.inputs].max().to_numpy(),
-                                p.n_samples, p.seed)
+    samples = sample_in_support(
+        gate, doe[p.inputs].min().to_numpy(), doe[p.inputs].max().to_numpy(), p.n_samples, p.seed
+    )
     outputs = {"doe": doe[p.inputs].to_numpy(float), "support": samples}
     for name, X in outputs.items():
         frame = synthetic_frame(X, p.inputs, surrogate, model, gate)

@@ -1,4 +1,5 @@
 """Table 1: the data sets and their roles."""
+
 from hybridtwin import files
 from hybridtwin.files import read_checked
 from hybridtwin.runner import run
@@ -7,8 +8,14 @@ from hybridtwin.tables import dataset_summary
 
 def main(snakemake):
     support = read_checked(snakemake.input.support)
-    table = dataset_summary(len(read_checked(snakemake.input.doe)), len(support), int(support["in_support"].sum()),
-                            len(read_checked(snakemake.input.matched)), snakemake.params.k, snakemake.params.percentile)
+    table = dataset_summary(
+        len(read_checked(snakemake.input.doe)),
+        len(support),
+        int(support["in_support"].sum()),
+        len(read_checked(snakemake.input.matched)),
+        snakemake.params.k,
+        snakemake.params.percentile,
+    )
     files.write_csv(table, snakemake.output.table)
 
 

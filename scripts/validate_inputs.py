@@ -1,4 +1,5 @@
 """Check one of the user's files (with what it is checked against) and write its checked copy."""
+
 import warnings
 
 from hybridtwin import data, files

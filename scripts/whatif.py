@@ -1,4 +1,5 @@
 """results/predictions/whatif.csv: the frozen models' answers for the settings in the config's whatif file."""
+
 from pathlib import Path
 
 from hybridtwin.predictor import Predictor

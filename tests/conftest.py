@@ -16,8 +16,9 @@ def run_command(command: list[str], timeout: float, **kwargs) -> subprocess.Comp
     The command gets its own process group so that, on a timeout, its children (Snakemake's
     jobs) are killed with it.
     """
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True, **kwargs)
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, **kwargs
+    )
     try:
         stdout, stderr = process.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:

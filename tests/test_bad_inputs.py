@@ -5,6 +5,7 @@ Most cases call the validation in :mod:`hybridtwin.data` in-process on small CSV
 subprocess on a tiny config; each of those fails at the config check or at rule ``validate_inputs``
 and takes a few seconds, none runs the whole workflow.
 """
+
 from __future__ import annotations
 
 import copy
@@ -51,8 +52,12 @@ def make_frames(seed: int = 0) -> dict[str, pd.DataFrame]:
     rng = np.random.default_rng(seed)
 
     def inputs(n, shrink):
-        return pd.DataFrame({name: low + (high - low) * (shrink + (1 - 2 * shrink) * rng.random(n))
-                             for name, (low, high) in DOE_RANGES.items()})
+        return pd.DataFrame(
+            {
+                name: low + (high - low) * (shrink + (1 - 2 * shrink) * rng.random(n))
+                for name, (low, high) in DOE_RANGES.items()
+            }
+        )
 
     doe = inputs(12, 0.0)
     doe[TARGET] = _draw_in(doe)
@@ -77,8 +82,12 @@ class Case:
         self.frames = make_frames()
         self.settings = {
             "data": {name: str(folder / f"{name}.csv") for name in self.frames},
-            "columns": {"inputs": list(INPUTS), "target": TARGET,
-                        "matched_simulated": SIMULATED, "matched_measured": MEASURED},
+            "columns": {
+                "inputs": list(INPUTS),
+                "target": TARGET,
+                "matched_simulated": SIMULATED,
+                "matched_measured": MEASURED,
+            },
             "csv": {"sep": ",", "decimal": "."},
             "cv": {"folds": 3},
             "gate": {"k": 5},
@@ -129,6 +138,7 @@ def fails(case: Case, *words: str) -> str:
 
 # --- the clean data load, so that every failure below is due to the one thing broken ----------------------------
 
+
 def test_clean_data_loads_without_warning(case):
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataWarning)
@@ -140,10 +150,12 @@ def test_clean_data_loads_without_warning(case):
 
 # --- files: missing, misspelled, not a file, empty, binary, not UTF-8 -------------------------------------------
 
+
 def test_misspelled_file_names_the_file_and_suggests_csvs_in_the_folder(case):
     case.settings["data"]["doe"] = str(case.folder / "dose.csv")
-    message = fails(case, "doe file", "dose.csv", "does not exist", "config data.doe", "'doe.csv'",
-                    "did you mean 'doe.csv'")
+    message = fails(
+        case, "doe file", "dose.csv", "does not exist", "config data.doe", "'doe.csv'", "did you mean 'doe.csv'"
+    )
     assert "'matched.csv'" in message and "'production.csv'" in message
 
 
@@ -184,17 +196,33 @@ def test_latin1_text_names_line_column_and_byte(case):
     case.frames["production"]["supplier"] = "Stahlwerk"
     case.frames["production"].loc[6, "supplier"] = "Gie\u00dferei H\u00e4rtel"
     case.write(encoding="latin-1")
-    fails(case, "production file", "production.csv", "not UTF-8", "0xdf", "row 7 (line 8)", "column 'supplier'",
-          "CSV UTF-8", "Latin-1")
+    fails(
+        case,
+        "production file",
+        "production.csv",
+        "not UTF-8",
+        "0xdf",
+        "row 7 (line 8)",
+        "column 'supplier'",
+        "CSV UTF-8",
+        "Latin-1",
+    )
 
 
 # --- columns: absent, near misses, duplicated, separator -------------------------------------------------------
 
+
 def test_column_absent_with_case_near_miss(case):
     case.frames["production"] = case.frames["production"].rename(columns={"die_temp_c": "Die_Temp_C"})
     case.write()
-    fails(case, "production file", "production.csv", "has no column 'die_temp_c'", "the file has 'Die_Temp_C'",
-          "columns.inputs")
+    fails(
+        case,
+        "production file",
+        "production.csv",
+        "has no column 'die_temp_c'",
+        "the file has 'Die_Temp_C'",
+        "columns.inputs",
+    )
 
 
 def test_column_absent_with_typo_near_miss(case):
@@ -217,8 +245,9 @@ def test_duplicated_column_names(case):
 
 def test_semicolon_export_is_named_by_require_columns(case):
     case.write(sep=";")
-    message = fails(case, "doe file", "has no column 'thickness_mm'",
-                    "looks like a semicolon-separated export", "csv.sep: ';'")
+    message = fails(
+        case, "doe file", "has no column 'thickness_mm'", "looks like a semicolon-separated export", "csv.sep: ';'"
+    )
     frame = read_csv(case.path("doe"), "doe")
     with pytest.raises(InputError, match="semicolon-separated export.*csv.sep: ';'"):
         require_columns(frame, INPUTS, "doe file 'doe.csv'", "columns.inputs")
@@ -244,11 +273,19 @@ def test_european_excel_export_semicolon_and_decimal_comma(case):
 
 # --- values: decimal comma, text, missing, infinite --------------------------------------------------------------
 
+
 def test_decimal_comma_quoted_in_a_comma_separated_file(case):
     case.write(decimal=",")  # Excel quotes "0,71" when the separator is also a comma
     assert '"0,' in case.path("doe").read_text()
-    fails(case, "doe file", "doe.csv", "column 'thickness_mm'", "row 1 (line 2)",
-          "looks like a decimal comma", "csv.decimal: ','")
+    fails(
+        case,
+        "doe file",
+        "doe.csv",
+        "column 'thickness_mm'",
+        "row 1 (line 2)",
+        "looks like a decimal comma",
+        "csv.decimal: ','",
+    )
     case.settings["csv"]["decimal"] = ","
     assert case.load()["doe"]["thickness_mm"].between(0.7, 0.9).all()
 
@@ -258,8 +295,16 @@ def test_decimal_comma_unquoted_splits_the_rows(case):
     lines = text.splitlines()
     lines[3] = lines[3].replace(".", ",")
     case.write_text("doe", "\n".join(lines) + "\n")
-    fails(case, "doe file", "row 3 (line 4)", "fields", "the header has 4 columns", "decimal comma",
-          "csv.sep: ';'", "csv.decimal: ','")
+    fails(
+        case,
+        "doe file",
+        "row 3 (line 4)",
+        "fields",
+        "the header has 4 columns",
+        "decimal comma",
+        "csv.sep: ';'",
+        "csv.decimal: ','",
+    )
 
 
 def test_stray_separator_in_one_row(case):
@@ -269,27 +314,43 @@ def test_stray_separator_in_one_row(case):
     fails(case, "production file", "row 10 (line 11)", "6 fields", "the header has 5 columns")
 
 
-@pytest.mark.parametrize("value, hint", [("abc", ""), ("0.81 mm", "unit"), ("#DIV/0!", "Excel error"),
-                                         ("1,234.5", "thousands separator")])
+@pytest.mark.parametrize(
+    "value, hint", [("abc", ""), ("0.81 mm", "unit"), ("#DIV/0!", "Excel error"), ("1,234.5", "thousands separator")]
+)
 def test_text_where_a_number_goes(case, value, hint):
     case.set_cell("doe", 5, "die_temp_c", value)
     fails(case, "doe file", "doe.csv", "column 'die_temp_c'", "row 5 (line 6)", repr(value), "is not a number", hint)
 
 
-@pytest.mark.parametrize("name, column", [("doe", "thickness_mm"), ("doe", TARGET), ("production", "cushion_kn"),
-                                          ("production", TARGET), ("matched", MEASURED)])
+@pytest.mark.parametrize(
+    "name, column",
+    [
+        ("doe", "thickness_mm"),
+        ("doe", TARGET),
+        ("production", "cushion_kn"),
+        ("production", TARGET),
+        ("matched", MEASURED),
+    ],
+)
 @pytest.mark.parametrize("value", ["NaN", "nan", "NA"])
 def test_nan_text_is_reported_as_missing(case, name, column, value):
     case.set_cell(name, 2, column, value)
-    fails(case, f"{name} file", f"{name}.csv", f"column '{column}'", "row 2 (line 3)",
-          f"value '{value}' is missing (NaN)")
+    fails(
+        case, f"{name} file", f"{name}.csv", f"column '{column}'", "row 2 (line 3)", f"value '{value}' is missing (NaN)"
+    )
 
 
 def test_empty_cell_is_reported_as_missing(case):
     case.set_cell("production", 17, "die_temp_c", "")
     case.set_cell("production", 20, "die_temp_c", "")
-    fails(case, "production file", "column 'die_temp_c'", "row 17 (line 18)", "an empty cell is missing (NaN)",
-          "2 missing")
+    fails(
+        case,
+        "production file",
+        "column 'die_temp_c'",
+        "row 17 (line 18)",
+        "an empty cell is missing (NaN)",
+        "2 missing",
+    )
 
 
 def test_blank_lines_are_skipped_with_a_warning_and_later_rows_keep_their_line(case):
@@ -315,11 +376,19 @@ def test_infinite_values(case, value):
 
 # --- DoE shape: constant column, too few rows ----------------------------------------------------------------
 
+
 def test_constant_doe_column_cannot_be_standardized(case):
     case.frames["doe"]["die_temp_c"] = 40.0
     case.write()
-    fails(case, "doe file", "column 'die_temp_c'", "constant", "standard deviation 0", "cannot be standardized",
-          "every row is 40")
+    fails(
+        case,
+        "doe file",
+        "column 'die_temp_c'",
+        "constant",
+        "standard deviation 0",
+        "cannot be standardized",
+        "every row is 40",
+    )
 
 
 def test_fewer_doe_rows_than_cv_folds(case):
@@ -334,6 +403,7 @@ def test_fewer_doe_rows_than_the_gate_needs(case):
 
 
 # --- the configured columns and settings, in-process ------------------------------------------------------------
+
 
 def test_target_listed_as_input(case):
     case.settings["columns"]["inputs"] = [*INPUTS, TARGET]
@@ -352,17 +422,21 @@ def test_inputs_given_as_one_string(case):
 
 def test_simulated_and_measured_are_the_same_column():
     with pytest.raises(InputError, match="columns.matched_simulated and columns.matched_measured are both"):
-        Columns.from_config({"inputs": INPUTS, "target": TARGET, "matched_simulated": MEASURED,
-                             "matched_measured": MEASURED})
+        Columns.from_config(
+            {"inputs": INPUTS, "target": TARGET, "matched_simulated": MEASURED, "matched_measured": MEASURED}
+        )
 
 
-@pytest.mark.parametrize("section, key, value, words", [
-    ("cv", "folds", "three", "config error: cv.folds = 'three', must be a whole number"),
-    ("gate", "k", 0, "config error: gate.k = 0, must be at least 1"),
-    ("csv", "sep", ":", "config error: csv.sep = ':', must be one of ',', ';', '\\t', '|'"),
-    ("tuning", "n_trials", 2.5, "config error: tuning.n_trials = 2.5, must be a whole number"),
-    ("gate", "percentile", 150, "config error: gate.percentile = 150, must be at most 100"),
-])
+@pytest.mark.parametrize(
+    "section, key, value, words",
+    [
+        ("cv", "folds", "three", "config error: cv.folds = 'three', must be a whole number"),
+        ("gate", "k", 0, "config error: gate.k = 0, must be at least 1"),
+        ("csv", "sep", ":", "config error: csv.sep = ':', must be one of ',', ';', '\\t', '|'"),
+        ("tuning", "n_trials", 2.5, "config error: tuning.n_trials = 2.5, must be a whole number"),
+        ("gate", "percentile", 150, "config error: gate.percentile = 150, must be at most 100"),
+    ],
+)
 def test_config_value_of_wrong_type_or_range_in_process(case, section, key, value, words):
     case.settings.setdefault(section, {})[key] = value
     fails(case, words)
@@ -386,6 +460,7 @@ def test_the_schema_fills_in_the_defaults_of_what_the_config_leaves_out(case):
 
 # --- the support: stop when no production row is inside, warn when matched cases are outside -------------------
 
+
 def _support(frames: dict, gate_k: int = 5):
     gate = KNNSupportGate(k=gate_k, percentile=95).fit(frames["doe"][INPUTS])
     return gate, gate.predict(frames["production"][INPUTS]), gate.predict(frames["matched"][INPUTS])
@@ -400,8 +475,15 @@ def test_production_in_other_units_has_no_support():
     with pytest.raises(InputError) as caught:
         check_support(production_in, frames["doe"], frames["production"], INPUTS, paths, gate.threshold_)
     message = str(caught.value)
-    for word in ("production file 'prod.csv'", "no row lies inside the DoE support", "cushion_kn",
-                 "100% of rows outside", "DoE spans beyond", "about 1000 times the DoE values", "unit"):
+    for word in (
+        "production file 'prod.csv'",
+        "no row lies inside the DoE support",
+        "cushion_kn",
+        "100% of rows outside",
+        "DoE spans beyond",
+        "about 1000 times the DoE values",
+        "unit",
+    ):
         assert word in message, message
     assert "thickness_mm" not in message and "die_temp_c:" not in message
 
@@ -411,21 +493,28 @@ def test_matched_cases_outside_the_support_warn_and_go_on():
     frames["matched"].loc[1, "die_temp_c"] = 95.0
     gate, production_in, matched_in = _support(frames)
     assert production_in.any() and not matched_in[1]
-    with pytest.warns(DataWarning, match=r"matched file 'matched.csv': 1 of 3 matched case\(s\) lie outside the DoE "
-                                         r"support \(row 2 \(line 3\)\)"):
+    with pytest.warns(
+        DataWarning,
+        match=r"matched file 'matched.csv': 1 of 3 matched case\(s\) lie outside the DoE "
+        r"support \(row 2 \(line 3\)\)",
+    ):
         warn_matched_outside(matched_in, {"production": "production.csv", "matched": "matched.csv"})
 
 
 def test_production_far_outside_the_doe_ranges_warns_and_goes_on(case):
     case.frames["production"].loc[:4, "die_temp_c"] = 95.0
     case.write()
-    with pytest.warns(DataWarning, match=r"(?s)production file .*production.csv.*far outside the DoE ranges.*"
-                                         r"die_temp_c: data .*\.\.95, DoE .*17% of rows outside"):
+    with pytest.warns(
+        DataWarning,
+        match=r"(?s)production file .*production.csv.*far outside the DoE ranges.*"
+        r"die_temp_c: data .*\.\.95, DoE .*17% of rows outside",
+    ):
         frames = case.load()
     assert len(frames["production"]) == 30
 
 
 # --- inputs are only read ----------------------------------------------------------------------------------------
+
 
 def test_failed_load_leaves_input_files_unchanged(case):
     case.write(decimal=",")
@@ -438,6 +527,7 @@ def test_failed_load_leaves_input_files_unchanged(case):
 
 
 # --- the real workflow, up to its config check or its validate_inputs rule ---------------------------------------
+
 
 def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
     """Run the workflow in ``case.folder`` on config/test.yaml pointed at the case's files (relative paths)."""
@@ -452,20 +542,41 @@ def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
     configfile.write_text(yaml.safe_dump(config))
     environment = {**os.environ, "PYTHONWARNINGS": "ignore"}
     # the targets stop the run after the validate_inputs jobs, should the data pass
-    return run_command([sys.executable, "-m", "snakemake", *(f"results/data/{role}.csv" for role in ("doe", "production",
-                                                                                               "matched")),
-                        "-s", str(ROOT / "Snakefile"),
-                        "-d", str(case.folder), "--configfile", str(configfile), "--cores", "1", "-q"],
-                       timeout=300, env=environment)
+    return run_command(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            *(f"results/data/{role}.csv" for role in ("doe", "production", "matched")),
+            "-s",
+            str(ROOT / "Snakefile"),
+            "-d",
+            str(case.folder),
+            "--configfile",
+            str(configfile),
+            "--cores",
+            "1",
+            "-q",
+        ],
+        timeout=300,
+        env=environment,
+    )
 
 
-@pytest.mark.parametrize("changes, line", [
-    ({"tuning__n_trials": 0}, "config error: tuning.n_trials = 0, must be at least 1"),
-    ({"gate__percentile": 150}, "config error: gate.percentile = 150, must be at most 100"),
-    ({"cv__folds": "three"}, "config error: cv.folds = 'three', must be a whole number"),
-    ({"data__doe": "doee.csv"}, "config error: data.doe = 'doee.csv', no such file; CSV files in '.': "
-                                "'doe.csv', 'matched.csv', 'production.csv' — did you mean 'doe.csv'?"),
-], ids=["n_trials-0", "percentile-150", "folds-text", "data-file-missing"])
+@pytest.mark.parametrize(
+    "changes, line",
+    [
+        ({"tuning__n_trials": 0}, "config error: tuning.n_trials = 0, must be at least 1"),
+        ({"gate__percentile": 150}, "config error: gate.percentile = 150, must be at most 100"),
+        ({"cv__folds": "three"}, "config error: cv.folds = 'three', must be a whole number"),
+        (
+            {"data__doe": "doee.csv"},
+            "config error: data.doe = 'doee.csv', no such file; CSV files in '.': "
+            "'doe.csv', 'matched.csv', 'production.csv' — did you mean 'doe.csv'?",
+        ),
+    ],
+    ids=["n_trials-0", "percentile-150", "folds-text", "data-file-missing"],
+)
 def test_workflow_stops_on_a_bad_config_with_one_plain_line(case, changes, line):
     result = run_workflow(case, **changes)
     assert result.returncode != 0, result.stderr
@@ -481,8 +592,7 @@ def test_workflow_stops_on_a_decimal_comma_export_and_leaves_no_output(case):
     result = run_workflow(case)
     assert result.returncode != 0, result.stderr
     # All three files are comma exports; which one the scheduler checks first is not fixed.
-    assert any(f"{role} file '{role}.csv'" in result.stderr for role in ("doe", "production", "matched")), \
-        result.stderr
+    assert any(f"{role} file '{role}.csv'" in result.stderr for role in ("doe", "production", "matched")), result.stderr
     for word in ("column 'thickness_mm'", "row 1 (line 2)", "looks like a decimal comma", "csv.decimal: ','"):
         assert word in result.stderr, result.stderr
     assert "Traceback" not in result.stderr.split("RuleException")[0]
@@ -494,8 +604,12 @@ def test_workflow_stops_on_a_missing_value(case):
     case.set_cell("production", 12, TARGET, "nan")
     result = run_workflow(case)
     assert result.returncode != 0, result.stderr
-    for word in ("production file 'production.csv'", f"column '{TARGET}'", "row 12 (line 13)",
-                 "value 'nan' is missing (NaN)"):
+    for word in (
+        "production file 'production.csv'",
+        f"column '{TARGET}'",
+        "row 12 (line 13)",
+        "value 'nan' is missing (NaN)",
+    ):
         assert word in result.stderr, result.stderr
     # Files are checked one by one: the bad file leaves no checked copy, and a good file checked
     # in the same run (whether it ran first depends on the scheduler) is complete.

@@ -1,4 +1,5 @@
 """hybridtwin.diagnosis: the selection rules, each on a small constructed plant whose right answer is known."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -39,8 +40,9 @@ def _term(name: str, kind: str, term, values=None) -> diagnosis.Fit:
     """A fit whose term is ``term`` itself (on the candidate's ``values``, by default the term)."""
     term = np.asarray(term, float)
     values = term if values is None else values
-    return diagnosis.Fit(Candidate.new(name, kind, values, tuple(name.split("*"))), Identity(), term,
-                         1.0, 1.0, -1.0, 0.0, 0.0, 0.0)
+    return diagnosis.Fit(
+        Candidate.new(name, kind, values, tuple(name.split("*"))), Identity(), term, 1.0, 1.0, -1.0, 0.0, 0.0, 0.0
+    )
 
 
 def test_an_id_is_handed_to_a_column_by_the_share_of_its_level_differences():
@@ -58,8 +60,12 @@ def test_an_id_is_handed_to_a_column_by_the_share_of_its_level_differences():
     assert diagnosis.physical_cause(coil, [coil, pair], y, lambda fit: True)[0] is pair
     assert diagnosis.physical_cause(coil, [coil, weak_pair], y, lambda fit: True) == (coil, 0.0)
     assert diagnosis.physical_cause(coil, [coil, weak_lube], y, lambda fit: True)[0] is weak_lube
-    assert diagnosis.physical_cause(coil, [coil, _term("lube", "log", 0.25 * y)], y,  # share 0.4375
-                                    lambda fit: True) == (coil, 0.0)
+    assert diagnosis.physical_cause(
+        coil,
+        [coil, _term("lube", "log", 0.25 * y)],
+        y,  # share 0.4375
+        lambda fit: True,
+    ) == (coil, 0.0)
 
 
 def test_elapsed_time_ranks_behind_a_logged_quantity_that_predicts_the_same():
@@ -85,8 +91,9 @@ def _coil_plant(explained: float, seed: int = 1):
     effect = 3.0 * (lube - lube.mean()) / lube.std()
     coil_term = np.sqrt(explained) * effect + np.sqrt(1 - explained) * 3.0 * own / own.std()
     coil = np.repeat(np.arange(n_coils), per_coil)
-    frame = pd.DataFrame({"coil": [f"K{c:03d}" for c in coil], "lube": np.round(lube[coil], 2),
-                          "ambient": rng.normal(20, 2, len(coil))})
+    frame = pd.DataFrame(
+        {"coil": [f"K{c:03d}" for c in coil], "lube": np.round(lube[coil], 2), "ambient": rng.normal(20, 2, len(coil))}
+    )
     return frame, coil_term[coil] + rng.normal(0, 0.5, len(coil))
 
 
@@ -132,10 +139,13 @@ def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
     temp = rng.uniform(20, 50, n)
     y = 6.0 / (1 + np.exp(-(temp - 35) / 1.5)) + rng.normal(0, 0.4, n)
     y -= y.mean()
-    fits = {name: best_fit(Candidate.new(name, kind, values, cols), y, SETTINGS, 0.5) for name, kind, values, cols in [
-        ("temp", "input", temp, ("temp",)),
-        ("temp*other", "interaction", np.column_stack([temp, rng.normal(0, 1, n)]), ("temp", "other")),
-    ]}
+    fits = {
+        name: best_fit(Candidate.new(name, kind, values, cols), y, SETTINGS, 0.5)
+        for name, kind, values, cols in [
+            ("temp", "input", temp, ("temp",)),
+            ("temp*other", "interaction", np.column_stack([temp, rng.normal(0, 1, n)]), ("temp", "other")),
+        ]
+    }
     # the pair as the best-scoring candidate: the single column is simpler and predicts the same
     chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), 2.0, lambda fit: True, y, SETTINGS)
     assert chosen.candidate.name == "temp"
@@ -152,8 +162,10 @@ def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(dr
     drift = {"hours": hours, "strokes": strokes}[drift_along]
     y = 2.0 * (drift - drift.mean()) / drift.std() + rng.normal(0, 1.0, n)
     y -= y.mean()
-    fits = [best_fit(Candidate.new(name, kind, values, (name,)), y, SETTINGS, 0.5) for name, kind, values in [
-        ("time", "time", hours), ("strokes", "log", strokes)]]
+    fits = [
+        best_fit(Candidate.new(name, kind, values, (name,)), y, SETTINGS, 0.5)
+        for name, kind, values in [("time", "time", hours), ("strokes", "log", strokes)]
+    ]
     best = min(fits, key=lambda fit: fit.score)
     chosen = diagnosis.prefer_simpler(best, fits, 1.0, lambda fit: True, y, SETTINGS)
     assert chosen.candidate.name == expected
@@ -189,8 +201,10 @@ def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     temp = 30 + 20 * strokes / n + rng.normal(0, 4, n)
     y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 4.0 * strokes / n + rng.normal(0, 0.5, n)
     y -= y.mean()
-    by_name = {"temp": Candidate.new("temp", "input", temp, ("temp",)),
-               "strokes": Candidate.new("strokes", "log", strokes, ("strokes",))}
+    by_name = {
+        "temp": Candidate.new("temp", "input", temp, ("temp",)),
+        "strokes": Candidate.new("strokes", "log", strokes, ("strokes",)),
+    }
     alone = best_fit(by_name["temp"], y, SETTINGS, 0.5)
     quadratic = next(alt for alt in alone.alternatives if alt.form.name == "quadratic")
     models, means = forms.backfit([temp], ["quadratic"], y)
@@ -207,7 +221,10 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
     y = 6.0 / (1 + np.exp(-(temp - 35) / 2.0)) + rng.normal(0, 0.4, n)
     y -= y.mean()
     pair = Candidate.new("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
-    by_name = {"temp": Candidate.new("temp", "input", temp, ("temp",)), "other": Candidate.new("other", "input", other, ("other",))}
+    by_name = {
+        "temp": Candidate.new("temp", "input", temp, ("temp",)),
+        "other": Candidate.new("other", "input", other, ("other",)),
+    }
     selected = [best_fit(pair, y, SETTINGS)]
     assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
     assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"

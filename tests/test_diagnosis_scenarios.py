@@ -7,6 +7,7 @@ of seed n (one per kind and family), to replay a bank's draw or to try new ones.
 What is asked of each plant lives in ``scenarios.Outcome`` (``diagnosis_ok``, ``gain_ok``), so
 that ``benchmarks/diagnosis_bank.py`` counts the same thing over many more draws.
 """
+
 import os
 
 import pytest
@@ -19,8 +20,9 @@ REPLAY = os.environ.get("HYBRIDTWIN_TEST_SEED")
 def _draws():
     if REPLAY:
         seed = int(REPLAY)
-        return ([("demo", kind, seed + i) for i, kind in enumerate(scenarios.KINDS)]
-                + [("families", family, seed) for family in families.FAMILIES])
+        return [("demo", kind, seed + i) for i, kind in enumerate(scenarios.KINDS)] + [
+            ("families", family, seed) for family in families.FAMILIES
+        ]
     demo = [("demo", kind, seed) for kind in scenarios.KINDS for seed in (1, 2)]
     demo += [("demo", kind, 12345 + i) for i, kind in enumerate(scenarios.KINDS)]
     return demo + [("families", family, 1) for family in families.FAMILIES] + [("families", "two_causes", 2404)]
@@ -69,5 +71,7 @@ def test_names_the_hidden_cause_and_its_form(outcome):
 def test_extension_never_loses_to_the_hybrid_out_of_support(outcome):
     assert outcome.gain_ok, (
         f"{_where(outcome)}: out of support against the truth: hybrid {outcome.rmse_oos_hybrid_truth:.2f}, "
-        f"extended {outcome.rmse_oos_extended_truth:.2f}, extended hybrid {outcome.rmse_oos_extended_hybrid_truth:.2f}; "
-        f"measured: hybrid {outcome.rmse_oos_hybrid:.2f}, extended hybrid {outcome.rmse_oos_extended_hybrid:.2f}")
+        f"extended {outcome.rmse_oos_extended_truth:.2f}, "
+        f"extended hybrid {outcome.rmse_oos_extended_hybrid_truth:.2f}; "
+        f"measured: hybrid {outcome.rmse_oos_hybrid:.2f}, extended hybrid {outcome.rmse_oos_extended_hybrid:.2f}"
+    )

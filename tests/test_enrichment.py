@@ -1,4 +1,5 @@
 """Proposed simulations: where production runs outside the support, on constructed plants."""
+
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,8 @@ def test_proposals_go_where_production_runs_outside_and_the_share_is_the_rebuilt
         assert share == pytest.approx(rebuilt.predict(production).mean())
     assert proposal.share_after[-1] > 0.9
     assert sum(len(rows) for rows in proposal.brought_in) == pytest.approx(
-        (proposal.share_after[-1] - proposal.share_before) * len(production), abs=len(production) * 0.05)
+        (proposal.share_after[-1] - proposal.share_before) * len(production), abs=len(production) * 0.05
+    )
 
 
 def test_proposals_stay_inside_the_physical_limits():

@@ -1,4 +1,5 @@
 """hybridtwin.extension: offset plus diagnosed terms, refitted jointly, trusted only as far as the data show."""
+
 import json
 
 import numpy as np

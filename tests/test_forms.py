@@ -1,4 +1,5 @@
 """hybridtwin.forms: every discrepancy form on exact data, by hand; trusted ranges; backfitting."""
+
 import json
 import warnings
 
@@ -93,13 +94,19 @@ def test_product_and_additive_fit_exact_data():
     assert additive.describe("a*b") == "additive: +2 mm per unit of a, -1 mm per unit of b"
 
 
-@pytest.mark.parametrize("name,x,y", [
-    ("linear", X, 2 * X), ("quadratic", X, X**2), ("sigmoid", X, 1 / (1 + np.exp(-(X - 5)))),
-    ("step", X, (X > 5) * 2.0), ("monotone", X, np.sqrt(X)),
-    ("group", np.array(list("abcab")), np.arange(5.0)),
-    ("product", np.column_stack([X, X[::-1]]), X * X[::-1]),
-    ("additive", np.column_stack([X, X[::-1] ** 2]), X + X[::-1] ** 2),
-])
+@pytest.mark.parametrize(
+    "name,x,y",
+    [
+        ("linear", X, 2 * X),
+        ("quadratic", X, X**2),
+        ("sigmoid", X, 1 / (1 + np.exp(-(X - 5)))),
+        ("step", X, (X > 5) * 2.0),
+        ("monotone", X, np.sqrt(X)),
+        ("group", np.array(list("abcab")), np.arange(5.0)),
+        ("product", np.column_stack([X, X[::-1]]), X * X[::-1]),
+        ("additive", np.column_stack([X, X[::-1] ** 2]), X + X[::-1] ** 2),
+    ],
+)
 def test_every_form_survives_a_json_round_trip(name, x, y):
     form = forms.fit_form(name, x, y)
     if name != "group":
@@ -111,6 +118,7 @@ def test_every_form_survives_a_json_round_trip(name, x, y):
 
 
 # ------------------------------------------------------------------ how far a form is trusted
+
 
 def test_a_slope_fitted_to_a_step_is_held_constant_beyond_the_data():
     rng = np.random.default_rng(1)
@@ -169,6 +177,7 @@ def test_group_offsets_never_get_a_range():
 
 
 # ------------------------------------------------------------------ backfitting
+
 
 def test_backfitting_recovers_two_correlated_slopes():
     rng = np.random.default_rng(4)

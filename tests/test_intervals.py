@@ -1,4 +1,5 @@
 """Prediction intervals by region and the recommended model, on constructed cases with known noise."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -41,10 +42,17 @@ def test_test_rows_never_reach_the_intervals_or_the_choice():
 
 
 def test_a_model_without_a_value_on_a_row_gives_way_to_the_next_in_its_regions_ranking():
-    fitted = intervals.RegionIntervals({"extended_hybrid": {"in_support": [0.5] * 50}, "hybrid": {"in_support": [0.6] * 50}},
-                                       {"in_support": ["extended_hybrid", "hybrid"]}, [], None)
-    predictions = {"extended_hybrid": np.array([1.0, np.nan]), "hybrid": np.array([1.1, 1.2]),
-                   "hybrid_gated": np.array([1.1, 1.2])}
+    fitted = intervals.RegionIntervals(
+        {"extended_hybrid": {"in_support": [0.5] * 50}, "hybrid": {"in_support": [0.6] * 50}},
+        {"in_support": ["extended_hybrid", "hybrid"]},
+        [],
+        None,
+    )
+    predictions = {
+        "extended_hybrid": np.array([1.0, np.nan]),
+        "hybrid": np.array([1.1, 1.2]),
+        "hybrid_gated": np.array([1.1, 1.2]),
+    }
     picked = intervals.recommended_prediction(fitted, predictions, np.array(["in_support"] * 2, object), 0.9)
     assert picked["recommended_model"].tolist() == ["extended_hybrid", "hybrid"]
     assert picked["pred_recommended"].tolist() == [1.0, 1.2]
@@ -54,8 +62,12 @@ def test_a_model_without_a_value_on_a_row_gives_way_to_the_next_in_its_regions_r
 
 
 def test_a_row_inside_the_gate_but_beyond_the_doe_range_is_out_of_support():
-    labels = intervals.regions(in_support=[True, True, False, False], beyond_range=[False, True, False, False],
-                               distance=[0.5, 0.6, 1.5, 2.5], edges=[2.0])
+    labels = intervals.regions(
+        in_support=[True, True, False, False],
+        beyond_range=[False, True, False, False],
+        distance=[0.5, 0.6, 1.5, 2.5],
+        edges=[2.0],
+    )
     assert labels.tolist() == ["in_support", "out_of_support_1", "out_of_support_1", "out_of_support_2"]
 
 
@@ -68,7 +80,8 @@ def test_outside_range_is_in_the_inputs_own_unit_and_named():
     assert texts == ["", "die_temp_c 3.5 above the DoE's max 55", "die_temp_c 5 below the DoE's min 15"]
     frame.loc[1, "shim_mm"] = 0.75
     assert intervals.describe_outside(intervals.outside_range(frame, doe_range), doe_range)[1] == (
-        "die_temp_c 3.5 above the DoE's max 55; shim_mm 0.15 above the DoE's max 0.6")
+        "die_temp_c 3.5 above the DoE's max 55; shim_mm 0.15 above the DoE's max 0.6"
+    )
 
 
 def test_distance_bins_hold_enough_calibration_rows():
@@ -98,9 +111,11 @@ def test_the_recommended_model_is_the_better_one_in_each_region():
     inside, distance, sd, truth, measured = plant()
     rng = np.random.default_rng(5)
     # "hybrid" is good in support and poor outside; "extended" the other way round
-    honest = {"hybrid": truth + np.where(inside, 0.0, rng.normal(0, 3, len(truth))),
-              "extended": truth + np.where(inside, rng.normal(0, 3, len(truth)), 0.0),
-              "hybrid_unfiltered": truth}  # perfect, but never recommended (it trained out of support)
+    honest = {
+        "hybrid": truth + np.where(inside, 0.0, rng.normal(0, 3, len(truth))),
+        "extended": truth + np.where(inside, rng.normal(0, 3, len(truth)), 0.0),
+        "hybrid_unfiltered": truth,
+    }  # perfect, but never recommended (it trained out of support)
     edges = intervals.distance_edges(distance[~inside], 2)
     region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
     calibration = intervals.calibration_rows(len(measured), 20)
@@ -109,7 +124,9 @@ def test_the_recommended_model_is_the_better_one_in_each_region():
     for name, model in better.items():
         weights = fitted.weights[name]
         # the stack's weights are non-negative and put (almost) everything on the better model
-        assert min(weights.values()) >= 0 and weights[model] > 0.95 and sum(weights.values()) == pytest.approx(1, abs=0.05)
+        assert (
+            min(weights.values()) >= 0 and weights[model] > 0.95 and sum(weights.values()) == pytest.approx(1, abs=0.05)
+        )
         # the recommended model is the better one, or the stack that is all but the better one
         assert fitted.recommended[name] in (model, "stack"), fitted.recommended
     honest = fitted.with_stack(honest, region)
@@ -143,6 +160,8 @@ def test_the_choice_compares_models_on_the_same_parts():
     noise = np.where(np.arange(n) < n // 2, 3.0, 0.5)
     truth = rng.normal(0, 3, n)
     measured = truth + rng.normal(0, 1, n) * noise
-    candidates = {"hybrid": truth + rng.normal(0, 0.3, n),
-                  "gp_discrepancy": np.where(np.arange(n) < n // 2, np.nan, truth + rng.normal(0, 1.0, n))}
+    candidates = {
+        "hybrid": truth + rng.normal(0, 0.3, n),
+        "gp_discrepancy": np.where(np.arange(n) < n // 2, np.nan, truth + rng.normal(0, 1.0, n)),
+    }
     assert intervals._ranking(measured, candidates, np.arange(n)) == ["hybrid", "gp_discrepancy"]

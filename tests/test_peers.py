@@ -1,4 +1,5 @@
 """The established peers on small constructed cases with a known smooth discrepancy."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -22,9 +23,14 @@ def case():
     doe = rng.random((40, 3))
     parts = rng.random((1500, 3))
     new = pd.DataFrame(rng.random((300, 3)), columns=COLUMNS)
-    return {"doe": pd.DataFrame(doe, columns=COLUMNS), "y_doe": simulator(doe) + rng.normal(0, 0.05, 40),
-            "parts": pd.DataFrame(parts, columns=COLUMNS), "y_parts": plant(parts) + rng.normal(0, 0.3, 1500),
-            "new": new, "truth": plant(new.to_numpy())}
+    return {
+        "doe": pd.DataFrame(doe, columns=COLUMNS),
+        "y_doe": simulator(doe) + rng.normal(0, 0.05, 40),
+        "parts": pd.DataFrame(parts, columns=COLUMNS),
+        "y_parts": plant(parts) + rng.normal(0, 0.3, 1500),
+        "new": new,
+        "truth": plant(new.to_numpy()),
+    }
 
 
 def _rmse(a, b):

@@ -1,28 +1,57 @@
 """hybridtwin.report: the diagnosis in words: signs, sizes, the named cause and what could not be separated."""
+
 import pandas as pd
 import pytest
 
 from hybridtwin.report import diagnosis_markdown
 
-CAUSES = pd.DataFrame([
-    {"rank": 1, "cause": "die_temp_c", "form": "sigmoid", "explained_share": 0.62, "p_value": 1e-9},
-    {"rank": 2, "cause": "coil_id", "form": "group", "explained_share": 0.75, "p_value": 1e-6},
-])
-GAIN = pd.DataFrame([
-    {"model": "hybrid", "rmse_in_support_cv": 1.4, "rmse_out_of_support": 2.0, "rmse_matched": 1.1,
-     "evaluated_on": "test rows"},
-    {"model": "extended", "rmse_in_support_cv": 1.4, "rmse_out_of_support": 1.5, "rmse_matched": 1.0,
-     "evaluated_on": "test rows"},
-])
+CAUSES = pd.DataFrame(
+    [
+        {"rank": 1, "cause": "die_temp_c", "form": "sigmoid", "explained_share": 0.62, "p_value": 1e-9},
+        {"rank": 2, "cause": "coil_id", "form": "group", "explained_share": 0.75, "p_value": 1e-6},
+    ]
+)
+GAIN = pd.DataFrame(
+    [
+        {
+            "model": "hybrid",
+            "rmse_in_support_cv": 1.4,
+            "rmse_out_of_support": 2.0,
+            "rmse_matched": 1.1,
+            "evaluated_on": "test rows",
+        },
+        {
+            "model": "extended",
+            "rmse_in_support_cv": 1.4,
+            "rmse_out_of_support": 1.5,
+            "rmse_matched": 1.0,
+            "evaluated_on": "test rows",
+        },
+    ]
+)
 
 
 def _summary(offset, selected=True):
-    cause = {"name": "die_temp_c", "form": "sigmoid", "family": "saturating",
-             "description": "saturating change of -9.7 mm around die_temp_c = 41.1", "effect_range": 9.7,
-             "p_value": 1e-9}
-    return {"offset": offset, "offset_se": 0.1, "n_rows": 1234, "residual_std": 3.0, "surrogate_std": 1.0,
-            "min_effect": 1.0, "selected": [cause] if selected else [], "aliases": {"die_temp_c": []},
-            "explained_by": {}, "proxies": {"coil_id": {"cause": "die_temp_c", "share": 0.81}}}
+    cause = {
+        "name": "die_temp_c",
+        "form": "sigmoid",
+        "family": "saturating",
+        "description": "saturating change of -9.7 mm around die_temp_c = 41.1",
+        "effect_range": 9.7,
+        "p_value": 1e-9,
+    }
+    return {
+        "offset": offset,
+        "offset_se": 0.1,
+        "n_rows": 1234,
+        "residual_std": 3.0,
+        "surrogate_std": 1.0,
+        "min_effect": 1.0,
+        "selected": [cause] if selected else [],
+        "aliases": {"die_temp_c": []},
+        "explained_by": {},
+        "proxies": {"coil_id": {"cause": "die_temp_c", "share": 0.81}},
+    }
 
 
 @pytest.mark.parametrize("offset, words", [(-3.25, "**3.25 mm less**"), (7.5, "**7.50 mm more**")])

@@ -1,4 +1,5 @@
 """Table builders of hybridtwin.hybrid and the out-of-fold splicing behind every production error."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,8 +16,14 @@ def test_splice_puts_out_of_fold_values_at_the_training_rows():
 
 
 def test_production_predictions_by_hand():
-    residuals = pd.DataFrame({"measured": [5.0, 6.0, 7.0], "pred_surrogate": [4.0, 4.0, 4.0],
-                              "pred_surrogate_std": [0.1, 0.2, 0.3], "residual_approx": [1.0, 2.0, 3.0]})
+    residuals = pd.DataFrame(
+        {
+            "measured": [5.0, 6.0, 7.0],
+            "pred_surrogate": [4.0, 4.0, 4.0],
+            "pred_surrogate_std": [0.1, 0.2, 0.3],
+            "residual_approx": [1.0, 2.0, 3.0],
+        }
+    )
     support = pd.DataFrame({"in_support": [True, False, True], "knn_distance": [0.5, 3.0, 0.7]})
     filtered = np.array([0.9, 2.5, 3.1])  # the final filtered model everywhere
     unfiltered = np.array([1.1, 1.9, 2.9])
@@ -32,11 +39,22 @@ def test_production_predictions_by_hand():
 
 
 def test_unfiltered_out_of_fold_must_cover_every_row():
-    residuals = pd.DataFrame({"measured": [5.0, 6.0], "pred_surrogate": [4.0, 4.0], "pred_surrogate_std": [0.1, 0.1],
-                              "residual_approx": [1.0, 2.0]})
+    residuals = pd.DataFrame(
+        {
+            "measured": [5.0, 6.0],
+            "pred_surrogate": [4.0, 4.0],
+            "pred_surrogate_std": [0.1, 0.1],
+            "residual_approx": [1.0, 2.0],
+        }
+    )
     support = pd.DataFrame({"in_support": [True, False], "knn_distance": [0.5, 3.0]})
-    table = production_predictions(residuals, support, np.zeros(2), np.zeros(2),
-                                   pd.DataFrame({"row": [0], "pred_residual_oof": [1.0]}),
-                                   pd.DataFrame({"row": [0], "pred_residual_oof": [1.0]}))
+    table = production_predictions(
+        residuals,
+        support,
+        np.zeros(2),
+        np.zeros(2),
+        pd.DataFrame({"row": [0], "pred_residual_oof": [1.0]}),
+        pd.DataFrame({"row": [0], "pred_residual_oof": [1.0]}),
+    )
     assert np.isnan(table["pred_hybrid_unfiltered_oof"].iloc[1])  # never silently filled with a trained value
     assert table["pred_hybrid_unfiltered_oof"].iloc[0] == pytest.approx(5.0)

@@ -1,4 +1,5 @@
 """Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
+
 import json
 import logging
 import math
@@ -22,6 +23,7 @@ optuna.logging.set_verbosity(optuna.logging.WARNING)
 
 
 # --------------------------------------------------------------------------- 1. metrics
+
 
 def test_metrics_by_hand():
     y, yhat = [1, 2, 3, 4], [1.5, 2, 2, 5]
@@ -58,8 +60,9 @@ def test_standardizer_statistics_by_hand():
     # column 1: mean 4, deviations -3, -1, 4 -> var 26 / 2 = 13 -> std sqrt(13)
     np.testing.assert_allclose(std.mean_, [2.0, 4.0])
     np.testing.assert_allclose(std.scale_, [2.0, math.sqrt(13.0)])
-    np.testing.assert_allclose(std.transform(DOE), [[-1, -3 / math.sqrt(13)], [0, -1 / math.sqrt(13)],
-                                                    [1, 4 / math.sqrt(13)]])
+    np.testing.assert_allclose(
+        std.transform(DOE), [[-1, -3 / math.sqrt(13)], [0, -1 / math.sqrt(13)], [1, 4 / math.sqrt(13)]]
+    )
     # the DoE's own standardized columns have mean 0 and sample std 1
     z = std.transform(DOE)
     np.testing.assert_allclose(z.mean(axis=0), 0.0, atol=1e-12)
@@ -140,8 +143,9 @@ def test_gate_uses_standardized_space_2d():
     assert gate.distance(np.array([[1.0, 5.0]]))[0] == pytest.approx(0.5 * h)
     # a grid point: distance 0 to itself and h to its nearest neighbour -> h / 2
     assert gate.distance(grid[4:5])[0] == pytest.approx(0.5 * h)
-    np.testing.assert_array_equal(gate.predict(np.array([[1.0, 10.0], [0.5, 5.0], [6.0, 0.0], [1.0, 80.0]])),
-                                  [True, True, False, False])
+    np.testing.assert_array_equal(
+        gate.predict(np.array([[1.0, 10.0], [0.5, 5.0], [6.0, 0.0], [1.0, 80.0]])), [True, True, False, False]
+    )
 
 
 def test_gate_uses_given_standardizer():
@@ -174,6 +178,7 @@ def test_gate_sklearn_clone():
 
 
 # --------------------------------------------------------------------------- 4. CV without leakage
+
 
 def test_folds_partition_rows():
     split = folds(23, 5, seed=7)
@@ -247,6 +252,7 @@ def test_cross_validate_oof_leave_one_out_by_hand():
 
 # --------------------------------------------------------------------------- 5. GPR surrogate
 
+
 def smooth(X):
     return np.sin(3 * X[:, 0]) + X[:, 1] ** 2 + 0.5 * X[:, 2]
 
@@ -294,8 +300,17 @@ def test_gpr_json_round_trip_and_determinism(doe30):
 
 # --------------------------------------------------------------------------- 6. residual model
 
-TABLE4 = {"n_estimators", "max_depth", "learning_rate", "subsample", "colsample_bytree", "min_child_weight",
-          "gamma", "reg_alpha", "reg_lambda"}
+TABLE4 = {
+    "n_estimators",
+    "max_depth",
+    "learning_rate",
+    "subsample",
+    "colsample_bytree",
+    "min_child_weight",
+    "gamma",
+    "reg_alpha",
+    "reg_lambda",
+}
 
 
 def test_search_space_overrides():
@@ -379,7 +394,8 @@ def test_tune_writes_journal_and_resumes(tiny_residual_data, tmp_path):
     assert other.study_name != first.study_name
     assert len(_complete(other)) == 1
     assert sorted(optuna.study.get_all_study_names(residual.open_storage(str(journal)))) == sorted(
-        [first.study_name, other.study_name])
+        [first.study_name, other.study_name]
+    )
 
 
 def test_tune_takes_over_a_lock_left_by_a_killed_worker(tiny_residual_data, tmp_path, monkeypatch):
@@ -391,8 +407,12 @@ def test_tune_takes_over_a_lock_left_by_a_killed_worker(tiny_residual_data, tmp_
     residual.tune(X, y, n_trials=1, n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)
     assert residual.journal_lock(str(journal)).acquire()  # and never released, as by a killed worker
     finished = []
-    worker = threading.Thread(target=lambda: finished.append(residual.tune(
-        X, y, n_trials=2, n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)), daemon=True)
+    worker = threading.Thread(
+        target=lambda: finished.append(
+            residual.tune(X, y, n_trials=2, n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)
+        ),
+        daemon=True,
+    )
     worker.start()
     worker.join(timeout=60)
     assert finished and len(_complete(finished[0])) == 2, "the stale lock was never released"
@@ -400,8 +420,10 @@ def test_tune_takes_over_a_lock_left_by_a_killed_worker(tiny_residual_data, tmp_
 
 def test_tune_fresh_study_is_deterministic(tiny_residual_data, tmp_path):
     X, y = tiny_residual_data
-    runs = [residual.tune(X, y, n_trials=2, n_folds=3, seed=1, storage=str(tmp_path / f"{i}.log"), space=SMALL_SPACE)
-            for i in range(2)]
+    runs = [
+        residual.tune(X, y, n_trials=2, n_folds=3, seed=1, storage=str(tmp_path / f"{i}.log"), space=SMALL_SPACE)
+        for i in range(2)
+    ]
     assert [(t.params, t.value) for t in _complete(runs[0])] == [(t.params, t.value) for t in _complete(runs[1])]
 
 
@@ -426,6 +448,7 @@ def test_model_save_load_round_trip(tiny_residual_data, tmp_path):
 
 
 # --------------------------------------------------------------------------- 7. matched cases
+
 
 def test_matched_summary_by_hand():
     measured = [10.0, 12.0, 14.0]
@@ -464,20 +487,24 @@ def test_matched_summary_by_hand():
 
 
 def test_gated_hybrid():
-    np.testing.assert_allclose(hybrid.gated(np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.5, 0.5]),
-                                            np.array([1, 0, 1])), [1.5, 2.0, 3.5])
+    np.testing.assert_allclose(
+        hybrid.gated(np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.5, 0.5]), np.array([1, 0, 1])), [1.5, 2.0, 3.5]
+    )
 
 
 # --------------------------------------------------------------------------- 8. sensitivity table (Table 5)
 
+
 def test_sensitivity_table_by_hand():
-    predictions = pd.DataFrame({
-        "measured": [10.0, 10.0, 10.0, 10.0],
-        "in_support": [True, True, False, False],
-        "pred_surrogate": [9.0, 11.0, 8.0, 13.0],  # errors [1, -1, 2, -3]
-        "pred_hybrid_oof": [10.0, 10.5, 9.0, 10.0],  # errors [0, -0.5, 1, 0]
-        "pred_hybrid_unfiltered_oof": [11.0, 10.0, 10.0, 12.0],  # errors [-1, 0, 0, -2]
-    })
+    predictions = pd.DataFrame(
+        {
+            "measured": [10.0, 10.0, 10.0, 10.0],
+            "in_support": [True, True, False, False],
+            "pred_surrogate": [9.0, 11.0, 8.0, 13.0],  # errors [1, -1, 2, -3]
+            "pred_hybrid_oof": [10.0, 10.5, 9.0, 10.0],  # errors [0, -0.5, 1, 0]
+            "pred_hybrid_unfiltered_oof": [11.0, 10.0, 10.0, 12.0],  # errors [-1, 0, 0, -2]
+        }
+    )
     table = tables.sensitivity_table(predictions).set_index("region")
     assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
     expected = {
@@ -489,12 +516,19 @@ def test_sensitivity_table_by_hand():
     }
     for column, (inside, outside, everywhere) in expected.items():
         got = table[column]
-        assert (got["in_support"], got["out_of_support"], got["all"]) == pytest.approx((inside, outside, everywhere)), column
-    assert table.loc["out_of_support", "rmse_filtered_train_gated"] == table.loc["out_of_support", "rmse_surrogate_only"]
-    assert table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
+        assert (got["in_support"], got["out_of_support"], got["all"]) == pytest.approx((inside, outside, everywhere)), (
+            column
+        )
+    assert (
+        table.loc["out_of_support", "rmse_filtered_train_gated"] == table.loc["out_of_support", "rmse_surrogate_only"]
+    )
+    assert (
+        table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
+    )
 
 
 # --- diagnosis internals ------------------------------------------------------------------------------------------
+
 
 def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
     from hybridtwin.diagnosis import Candidate, Settings, value_folds
@@ -542,11 +576,23 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
 def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
     from hybridtwin import files
 
-    frame = pd.DataFrame({"x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf], "n": [1, 2, 3, 4, 5],
-                          "text": ["a", "b", "c", "d", "e"], "flag": [True, False, True, False, True]})
+    frame = pd.DataFrame(
+        {
+            "x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf],
+            "n": [1, 2, 3, 4, 5],
+            "text": ["a", "b", "c", "d", "e"],
+            "flag": [True, False, True, False, True],
+        }
+    )
     files.write_csv(frame, tmp_path / "ours.csv", sep=sep, decimal=decimal)
-    frame.to_csv(tmp_path / "pandas.csv", index=False, float_format=files.FLOAT_FORMAT, lineterminator="\n", sep=sep,
-                 decimal=decimal)
+    frame.to_csv(
+        tmp_path / "pandas.csv",
+        index=False,
+        float_format=files.FLOAT_FORMAT,
+        lineterminator="\n",
+        sep=sep,
+        decimal=decimal,
+    )
     assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
 
 
@@ -557,15 +603,32 @@ def test_a_study_on_new_data_starts_from_the_earlier_studys_best_trials(tmp_path
     space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
     journal = str(tmp_path / "journal.log")
     first = residual.tune(X, y, n_trials=6, n_folds=3, seed=1, storage=journal, space=space)
-    best = sorted((t for t in first.trials if t.state == optuna.trial.TrialState.COMPLETE),
-                  key=lambda t: (t.value, t.number))[:3]
+    best = sorted(
+        (t for t in first.trials if t.state == optuna.trial.TrialState.COMPLETE), key=lambda t: (t.value, t.number)
+    )[:3]
     enriched = np.vstack([X, rng.random((10, 3))])
-    second = residual.tune(enriched, np.append(y, rng.random(10)), n_trials=4, n_folds=3, seed=1, storage=journal,
-                           space=space, warm_start=3)
+    second = residual.tune(
+        enriched,
+        np.append(y, rng.random(10)),
+        n_trials=4,
+        n_folds=3,
+        seed=1,
+        storage=journal,
+        space=space,
+        warm_start=3,
+    )
     assert second.study_name != first.study_name
     assert [t.params for t in second.trials[:3]] == [t.params for t in best]
-    cold = residual.tune(enriched[:-1], np.append(y, rng.random(9)), n_trials=2, n_folds=3, seed=1,
-                         storage=str(tmp_path / "other.log"), space=space, warm_start=3)
+    cold = residual.tune(
+        enriched[:-1],
+        np.append(y, rng.random(9)),
+        n_trials=2,
+        n_folds=3,
+        seed=1,
+        storage=str(tmp_path / "other.log"),
+        space=space,
+        warm_start=3,
+    )
     assert cold.trials[0].params != best[0].params  # nothing earlier in its storage: a cold start
 
 

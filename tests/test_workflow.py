@@ -4,6 +4,7 @@ One run feeds most checks (outputs, contracts, models that load, report); a
 second run in another folder must give byte-identical tables; a third reuses the
 first folder with changed matched cases, which must not move any trained model.
 """
+
 import filecmp
 import json
 import os
@@ -33,8 +34,22 @@ TEST_CONFIG = os.path.join(ROOT, "config", "test.yaml")
 
 
 def snakemake(workdir, *args, config=TEST_CONFIG, check=True, **popen):
-    command = [sys.executable, "-m", "snakemake", *args, "-s", os.path.join(ROOT, "Snakefile"), "-d", str(workdir),
-               "--configfile", str(config), "--cores", "2", "--quiet", "progress"]
+    command = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        *args,
+        "-s",
+        os.path.join(ROOT, "Snakefile"),
+        "-d",
+        str(workdir),
+        "--configfile",
+        str(config),
+        "--cores",
+        "2",
+        "--quiet",
+        "progress",
+    ]
     if popen:
         return subprocess.Popen(command, **popen)
     result = run_command(command, timeout=900)
@@ -52,9 +67,18 @@ def run_dir(tmp_path_factory):
 
 def test_every_contracted_output_exists(run_dir):
     results = run_dir / "results"
-    for name in ("table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
-                 "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension", "prediction_intervals",
-                 "peer_comparison"):
+    for name in (
+        "table1_datasets",
+        "table2_surrogate_cv",
+        "table3_residual_cv",
+        "table4_hyperparameters",
+        "table5_sensitivity",
+        "matched_check",
+        "discrepancy_causes",
+        "model_extension",
+        "prediction_intervals",
+        "peer_comparison",
+    ):
         assert (results / "tables" / f"{name}.csv").stat().st_size > 0, name
     comparison = pd.read_csv(results / "tables/peer_comparison.csv")
     assert {"gp_discrepancy", "cokriging", "stack", "recommended", "hybrid"} <= set(comparison["model"])
@@ -72,8 +96,17 @@ def test_production_predictions_contract(run_dir):
     production = pd.read_csv(run_dir / "results/demo/production.csv")
     assert len(predictions) == len(production)
     assert predictions["row"].tolist() == list(range(len(production)))
-    for column in ("in_support", "knn_distance", "pred_surrogate", "pred_hybrid", "pred_hybrid_gated",
-                   "pred_extended", "pred_extended_hybrid", "pred_hybrid_oof", "pred_hybrid_unfiltered_oof"):
+    for column in (
+        "in_support",
+        "knn_distance",
+        "pred_surrogate",
+        "pred_hybrid",
+        "pred_hybrid_gated",
+        "pred_extended",
+        "pred_extended_hybrid",
+        "pred_hybrid_oof",
+        "pred_hybrid_unfiltered_oof",
+    ):
         assert column in predictions and predictions[column].notna().all(), column
     # out of fold where a model was trained: the filtered model's values differ from its final fit inside only
     inside = predictions["in_support"]
@@ -146,8 +179,9 @@ def test_same_config_same_data_same_tables(run_dir, tmp_path):
     snakemake(tmp_path)
     comparison = filecmp.dircmp(run_dir / "results/tables", tmp_path / "results/tables")
     assert comparison.left_list == comparison.right_list
-    _, mismatch, errors = filecmp.cmpfiles(run_dir / "results/tables", tmp_path / "results/tables",
-                                           comparison.common_files, shallow=False)
+    _, mismatch, errors = filecmp.cmpfiles(
+        run_dir / "results/tables", tmp_path / "results/tables", comparison.common_files, shallow=False
+    )
     assert not mismatch and not errors, f"tables differ between two runs: {mismatch}"
 
 
@@ -169,7 +203,9 @@ def test_matched_cases_never_used_for_training_or_tuning(run_dir, tmp_path):
     snakemake(workdir, "--rerun-triggers", "mtime")
     assert {p.name: p.read_bytes() for p in (workdir / "results/models").glob("*.json")} == before
     assert {name: (workdir / "results/tables" / name).read_bytes() for name in tables} == tables_before
-    assert (workdir / "results/tables/matched_check.csv").read_bytes() != (run_dir / "results/tables/matched_check.csv").read_bytes()
+    assert (workdir / "results/tables/matched_check.csv").read_bytes() != (
+        run_dir / "results/tables/matched_check.csv"
+    ).read_bytes()
 
 
 def _complete_trials(journal: Path) -> list[dict]:
@@ -189,14 +225,22 @@ def _tuning_under_way(workdir, n_trials: int):
     returns the Snakemake process, the config it runs with and the study's journal."""
     config = yaml.safe_load(open(TEST_CONFIG))
     config["tuning"]["n_trials"] = n_trials
-    config["tuning"]["search_space"] = {"n_estimators": {"low": 300, "high": 600, "type": "int"},
-                                        "max_depth": {"low": 6, "high": 10, "type": "int"}}
+    config["tuning"]["search_space"] = {
+        "n_estimators": {"low": 300, "high": 600, "type": "int"},
+        "max_depth": {"low": 6, "high": 10, "type": "int"},
+    }
     config_path = workdir / "config.yaml"
     config_path.write_text(yaml.safe_dump(config))
     snakemake(workdir, "results/residuals/production_residuals.csv", config=config_path)
     journal = workdir / "results/optuna/journal.log"
-    process = snakemake(workdir, "results/tuning/best_params.json", config=config_path,
-                        start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    process = snakemake(
+        workdir,
+        "results/tuning/best_params.json",
+        config=config_path,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.time() + 240
     while time.time() < deadline and (not journal.exists() or len(_complete_trials(journal)) < 2):
         time.sleep(0.5)
@@ -253,7 +297,8 @@ def test_two_tuning_workers_lose_no_trials(tmp_path):
         "from hybridtwin import residual\n"
         "rng = np.random.default_rng(0); X = rng.normal(size=(300, 3)); y = X[:, 0] + rng.normal(0, .1, 300)\n"
         "residual.tune(X, y, n_trials=8, n_folds=3, seed=int(sys.argv[2]), storage=sys.argv[1],\n"
-        "              space={'n_estimators': {'low': 5, 'high': 30, 'type': 'int'}, 'max_depth': {'low': 2, 'high': 4, 'type': 'int'}})\n"
+        "              space={'n_estimators': {'low': 5, 'high': 30, 'type': 'int'},\n"
+        "                     'max_depth': {'low': 2, 'high': 4, 'type': 'int'}})\n"
     )
     journal = tmp_path / "shared.log"
     # the same data, space, folds and seed: both workers join one study
@@ -287,9 +332,18 @@ def test_a_config_with_its_keys_in_another_order_reruns_nothing(run_dir, tmp_pat
 
 # ---- the frozen predictor (what-if questions) on the run's models ----
 
-SHARED_WITH_PRODUCTION = ("in_support", "knn_distance", "pred_surrogate", "pred_hybrid", "pred_hybrid_gated",
-                          "pred_hybrid_unfiltered", "pred_extended", "pred_extended_hybrid", "pred_gp_discrepancy",
-                          "pred_cokriging")
+SHARED_WITH_PRODUCTION = (
+    "in_support",
+    "knn_distance",
+    "pred_surrogate",
+    "pred_hybrid",
+    "pred_hybrid_gated",
+    "pred_hybrid_unfiltered",
+    "pred_extended",
+    "pred_extended_hybrid",
+    "pred_gp_discrepancy",
+    "pred_cokriging",
+)
 
 
 def _as_written(frame: pd.DataFrame, columns, path) -> pd.DataFrame:
@@ -305,9 +359,11 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
     production = pd.read_csv(run_dir / "results/demo/production.csv")
     answers = predictor.predict(production)
     written = pd.read_csv(run_dir / "results/predictions/production.csv", dtype=str)
-    pd.testing.assert_frame_equal(_as_written(answers, SHARED_WITH_PRODUCTION, tmp_path / "answers.csv"), written[list(SHARED_WITH_PRODUCTION)])
+    pd.testing.assert_frame_equal(
+        _as_written(answers, SHARED_WITH_PRODUCTION, tmp_path / "answers.csv"), written[list(SHARED_WITH_PRODUCTION)]
+    )
     # the input's rows and columns come back first, in their order
-    assert list(answers.columns[:production.shape[1]]) == list(production.columns)
+    assert list(answers.columns[: production.shape[1]]) == list(production.columns)
     pd.testing.assert_frame_equal(answers[production.columns], production)
     # columns in another order give the same answers: they are taken by name
     shuffled = predictor.predict(production[production.columns[::-1]])
@@ -317,8 +373,14 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
 def test_every_model_file_names_its_inputs(run_dir):
     inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
     models = run_dir / "results/models"
-    for name in ("surrogate_gpr.json", "support_gate.json", "doe_standardization.json", "predictor.json",
-                 "peer_gp_discrepancy.json", "peer_cokriging.json"):
+    for name in (
+        "surrogate_gpr.json",
+        "support_gate.json",
+        "doe_standardization.json",
+        "predictor.json",
+        "peer_gp_discrepancy.json",
+        "peer_cokriging.json",
+    ):
         assert files.read_json(models / name)["inputs"] == inputs, name
     for name in ("residual_xgb_filtered.json", "residual_xgb_unfiltered.json", "residual_xgb_extended.json"):
         booster = xgb.Booster()
@@ -343,8 +405,12 @@ def test_a_setting_beyond_the_doe_range_is_out_of_the_domain_even_inside_the_gat
 
 
 def _cli(*args, cwd):
-    return run_command(["hybridtwin", "predict", *map(str, args)], timeout=120, cwd=cwd,
-                       env={"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", "/tmp")})
+    return run_command(
+        ["hybridtwin", "predict", *map(str, args)],
+        timeout=120,
+        cwd=cwd,
+        env={"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", "/tmp")},
+    )
 
 
 def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
@@ -352,8 +418,16 @@ def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
 
     settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:25]
     settings.to_csv(tmp_path / "new.csv", index=False)
-    result = _cli(tmp_path / "new.csv", "--models", run_dir / "results/models", "-o", tmp_path / "out.csv",
-                  "--level", "0.8", cwd=tmp_path)
+    result = _cli(
+        tmp_path / "new.csv",
+        "--models",
+        run_dir / "results/models",
+        "-o",
+        tmp_path / "out.csv",
+        "--level",
+        "0.8",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     answers = pd.read_csv(tmp_path / "out.csv")
     expected = Predictor.load(run_dir / "results/models").predict(settings, level=0.8)
@@ -366,11 +440,14 @@ def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
     assert f"{expected.loc[0, 'pred_recommended']:.6g}"[:6] in result.stdout
 
 
-@pytest.mark.parametrize("fault, expected", [
-    ("missing", ["what-if file", "no column 'rp02_mpa'", "columns.inputs"]),
-    ("text", ["what-if file", "column 'die_temp_c'", "row 3 (line 4)", "'warm'", "not a number"]),
-    ("decimal_comma", ["what-if file", "column 'thickness_mm'", "row 1 (line 2)", "decimal comma", "csv.decimal"]),
-])
+@pytest.mark.parametrize(
+    "fault, expected",
+    [
+        ("missing", ["what-if file", "no column 'rp02_mpa'", "columns.inputs"]),
+        ("text", ["what-if file", "column 'die_temp_c'", "row 3 (line 4)", "'warm'", "not a number"]),
+        ("decimal_comma", ["what-if file", "column 'thickness_mm'", "row 1 (line 2)", "decimal comma", "csv.decimal"]),
+    ],
+)
 def test_cli_bad_input_gets_the_workflows_messages(run_dir, tmp_path, fault, expected):
     settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:5].astype(object)
     if fault == "missing":
@@ -399,8 +476,9 @@ def test_whatif_key_adds_one_rule_and_its_answers_are_the_clis(run_dir, tmp_path
     (workdir / "config.yaml").write_text(yaml.safe_dump(config))
     assert planned_rules(workdir, workdir / "config.yaml") == {"whatif", "all"}
     snakemake(workdir, config=workdir / "config.yaml")
-    result = _cli(workdir / "settings.csv", "--models", workdir / "results/models", "-o", tmp_path / "cli.csv",
-                  cwd=tmp_path)
+    result = _cli(
+        workdir / "settings.csv", "--models", workdir / "results/models", "-o", tmp_path / "cli.csv", cwd=tmp_path
+    )
     assert result.returncode == 0, result.stderr
     assert (workdir / "results/predictions/whatif.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
 

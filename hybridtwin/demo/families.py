@@ -16,6 +16,7 @@ way, with every habit drawn at random per plant:
 Each family hides a different discrepancy (:data:`FAMILIES`); what the diagnosis must
 report is returned with the data (:class:`Expected`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -52,8 +53,7 @@ LOG_VOCABULARY = {
     "copy": ("die_temp_ir", "T_die_2", "werkzeugtemp_ir", "die_temperature_b"),
 }
 
-FAMILIES = ("temperature", "shim_step", "coil_property", "coil_itself", "two_causes", "time_drift",
-            "near_copy", "null")
+FAMILIES = ("temperature", "shim_step", "coil_property", "coil_itself", "two_causes", "time_drift", "near_copy", "null")
 
 
 @dataclass(frozen=True)
@@ -132,7 +132,7 @@ def _campaigns(n: int, coil: np.ndarray, rng: np.random.Generator) -> tuple[np.n
         lengths = rng.integers(60, 250, n // 60 + 2)
         return np.repeat(np.arange(len(lengths)), lengths)[:n], "setting campaigns shorter than a coil"
     coils_per_campaign = rng.integers(2, 6, coil.max() + 2)
-    campaign_of_coil = np.repeat(np.arange(len(coils_per_campaign)), coils_per_campaign)[:coil.max() + 1]
+    campaign_of_coil = np.repeat(np.arange(len(coils_per_campaign)), coils_per_campaign)[: coil.max() + 1]
     return campaign_of_coil[coil], "coils shorter than a setting campaign (settings changed at coil changes)"
 
 
@@ -143,8 +143,12 @@ def make_production(n: int, rng: np.random.Generator) -> tuple[pd.DataFrame, dic
     stamps = start + pd.to_timedelta(np.round(elapsed), unit="s")
     hour = stamps.hour.to_numpy() + stamps.minute.to_numpy() / 60.0
     day = ((stamps - stamps[0]).days).to_numpy()
-    ambient = (rng.uniform(17, 24) + rng.uniform(3, 7) * np.sin(2 * np.pi * (hour - 10.0) / 24.0)
-               + rng.normal(0, 2.0, day.max() + 1)[day] + rng.normal(0, 0.3, n))
+    ambient = (
+        rng.uniform(17, 24)
+        + rng.uniform(3, 7) * np.sin(2 * np.pi * (hour - 10.0) / 24.0)
+        + rng.normal(0, 2.0, day.max() + 1)[day]
+        + rng.normal(0, 0.3, n)
+    )
 
     coil = _coils(n, rng)
     n_coils = coil.max() + 1
@@ -169,14 +173,32 @@ def make_production(n: int, rng: np.random.Generator) -> tuple[pd.DataFrame, dic
     tau = rng.uniform(40, 120, shift_of.max() + 1)[shift_of] * 60.0
     die = ambient + 2.0 + warm * (1.0 - np.exp(-in_shift / tau)) + rng.normal(0, 0.5, n)
 
-    frame = pd.DataFrame({
-        "thickness_mm": thickness, "rm_mpa": rm, "rp02_mpa": rp, "r_n": r_n, "die_temp_c": die,
-        "ambient_temp_c": ambient, "shim20_mm": settings[:, 0], "shim21_mm": settings[:, 1],
-        "cushion_c1_kn": settings[:, 2], "cushion_c2_kn": settings[:, 3], "cushion_c3_kn": settings[:, 4],
-        "cushion_c4_kn": settings[:, 5],
-    }).round(4)
-    hidden = {"elapsed_h": elapsed / 3600.0, "stamps": stamps, "strokes": strokes, "coil": coil,
-              "shift_of": shift_of, "hour": hour, "lubricant": lubricant, "confounding": confounding}
+    frame = pd.DataFrame(
+        {
+            "thickness_mm": thickness,
+            "rm_mpa": rm,
+            "rp02_mpa": rp,
+            "r_n": r_n,
+            "die_temp_c": die,
+            "ambient_temp_c": ambient,
+            "shim20_mm": settings[:, 0],
+            "shim21_mm": settings[:, 1],
+            "cushion_c1_kn": settings[:, 2],
+            "cushion_c2_kn": settings[:, 3],
+            "cushion_c3_kn": settings[:, 4],
+            "cushion_c4_kn": settings[:, 5],
+        }
+    ).round(4)
+    hidden = {
+        "elapsed_h": elapsed / 3600.0,
+        "stamps": stamps,
+        "strokes": strokes,
+        "coil": coil,
+        "shift_of": shift_of,
+        "hour": hour,
+        "lubricant": lubricant,
+        "confounding": confounding,
+    }
     return frame, hidden
 
 
@@ -210,8 +232,9 @@ def _scaled(values: np.ndarray, inside: np.ndarray, target_std: float) -> np.nda
     return centred * target_std / centred[inside].std()
 
 
-def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_support: float = 0.07,
-               n_doe: int = 67) -> PlantCase:
+def draw_plant(
+    family: str, seed: int, n_production: int | None = None, min_in_support: float = 0.07, n_doe: int = 67
+) -> PlantCase:
     """A plant of ``family`` with its hidden effect, magnitudes and habits drawn from ``seed``."""
     if family not in FAMILIES:
         raise ValueError(f"unknown plant family {family!r}; families: {', '.join(FAMILIES)}")
@@ -249,8 +272,9 @@ def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_s
         if family == "two_causes":
             wear = _scaled(hidden["strokes"].astype(float), inside, sign * rng.uniform(1.8, 3.0))
             effect = effect + wear
-            expected = Expected(names["die_temp_c"], ("sigmoid",),
-                                also=(Expected(names["strokes"], ("linear",), monotone=True),))
+            expected = Expected(
+                names["die_temp_c"], ("sigmoid",), also=(Expected(names["strokes"], ("linear",), monotone=True),)
+            )
             text += f", and a wear drift of {wear[inside].std():.1f} mm (std in support) along {names['strokes']}"
     elif family == "shim_step":
         column = str(rng.choice(["shim20_mm", "shim21_mm"]))
@@ -274,8 +298,10 @@ def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_s
     elif family == "time_drift":
         effect = _scaled(hidden["elapsed_h"], inside, sign * rng.uniform(1.8, 3.0))
         expected = Expected(names["time"], ("linear",), monotone=True)
-        text = (f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
-                "in support, that no logged quantity explains")
+        text = (
+            f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
+            "in support, that no logged quantity explains"
+        )
     else:  # null
         expected = Expected(None)
         text = "no hidden effect"
@@ -301,5 +327,16 @@ def draw_plant(family: str, seed: int, n_production: int | None = None, min_in_s
     production = pd.concat([pd.DataFrame(log_columns), production], axis=1)[order]
     production[names["target"]] = measured
     doe = doe.rename(columns={**{c: names[c] for c in demo.INPUT_NAMES}, "__target": names["target"]})
-    return PlantCase(family, text, doe, production, truth, [names[c] for c in demo.INPUT_NAMES], names["target"],
-                     expected, float(noise), hidden["confounding"], names)
+    return PlantCase(
+        family,
+        text,
+        doe,
+        production,
+        truth,
+        [names[c] for c in demo.INPUT_NAMES],
+        names["target"],
+        expected,
+        float(noise),
+        hidden["confounding"],
+        names,
+    )

@@ -16,6 +16,7 @@ each with the same 12 process and material inputs as the paper:
 The noise-free plant truth is returned beside the data so that benchmarks can
 score predictions against the truth and the noise floor.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -71,8 +72,10 @@ class HiddenEffect:
         if self.form == "none":
             return "no hidden effect"
         if self.form == "sigmoid":
-            return (f"saturating change of {self.amplitude:+.1f} mm in {self.column} "
-                    f"around {self.threshold:g} (width {self.width:g})")
+            return (
+                f"saturating change of {self.amplitude:+.1f} mm in {self.column} "
+                f"around {self.threshold:g} (width {self.width:g})"
+            )
         if self.form == "step":
             return f"step of {self.amplitude:+.1f} mm when {self.column} >= {self.threshold:g}"
         if self.form == "linear":
@@ -94,8 +97,11 @@ class DemoPlant:
     noise_mm: float = 1.4
     offset_mm: float = 15.0
     blanks_per_coil: int = 1800
-    hidden_effect: HiddenEffect = field(default_factory=lambda: HiddenEffect(
-        form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=50.0, width=3.0))
+    hidden_effect: HiddenEffect = field(
+        default_factory=lambda: HiddenEffect(
+            form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=50.0, width=3.0
+        )
+    )
 
 
 def _unit(frame: pd.DataFrame, name: str) -> np.ndarray:
@@ -111,8 +117,8 @@ def simulator(frame: pd.DataFrame) -> np.ndarray:
     for name, (_, _, sensitivity) in INPUTS.items():
         y += SENSITIVITY_SCALE * sensitivity * u[name]
     cushion = (u["cushion_c1_kn"] + u["cushion_c2_kn"] + u["cushion_c3_kn"] + u["cushion_c4_kn"]) / 4
-    y += 1.0 * cushion**2                               # restraint saturates at high force
-    y += 0.8 * u["shim20_mm"] * u["cushion_c1_kn"]      # shim relieves the cushion locally
+    y += 1.0 * cushion**2  # restraint saturates at high force
+    y += 0.8 * u["shim20_mm"] * u["cushion_c1_kn"]  # shim relieves the cushion locally
     y -= 0.6 * u["thickness_mm"] * u["rp02_mpa"]
     return y
 
@@ -167,8 +173,9 @@ CAMPAIGN_HIGH = np.array([0.72, 0.70, 372, 372, 376, 372])
 def campaign_settings(n_runs: int, rng: np.random.Generator) -> np.ndarray:
     """One setting per run: a fixed space-filling design over the campaign window (so every plant
     has a similar share of parts in support), perturbed and shuffled per plant."""
-    design = qmc.scale(qmc.LatinHypercube(d=6, seed=np.random.default_rng(17)).random(n_runs),
-                       CAMPAIGN_LOW, CAMPAIGN_HIGH)
+    design = qmc.scale(
+        qmc.LatinHypercube(d=6, seed=np.random.default_rng(17)).random(n_runs), CAMPAIGN_LOW, CAMPAIGN_HIGH
+    )
     jitter = rng.normal(0.0, 0.03, (n_runs, 6)) * (CAMPAIGN_HIGH - CAMPAIGN_LOW)
     return np.clip(design + jitter, CAMPAIGN_LOW, CAMPAIGN_HIGH)[rng.permutation(n_runs)]
 
@@ -194,8 +201,9 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     stamps = start + pd.to_timedelta(np.round(elapsed_s), unit="s")
     hour = stamps.hour.to_numpy() + stamps.minute.to_numpy() / 60
 
-    ambient = (21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0)
-               + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n))
+    ambient = (
+        21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0) + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n)
+    )
 
     # coils of ~blanks_per_coil blanks; Rm and Rp0.2 move together from coil to coil
     coil = np.cumsum(rng.random(n) < 1 / plant.blanks_per_coil)
@@ -224,17 +232,26 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     strokes = 250_000 + np.arange(n) + np.cumsum(setup_strokes)[run]
     shift = np.select([(hour >= 6) & (hour < 14), (hour >= 14) & (hour < 22)], ["A", "B"], "C")
 
-    production = pd.DataFrame({
-        "timestamp": stamps.strftime("%Y-%m-%d %H:%M:%S"),
-        "stroke_counter": strokes,
-        "coil_id": [f"K{26000 + c:05d}" for c in coil],
-        "shift": shift,
-        "thickness_mm": thickness, "rm_mpa": rm, "rp02_mpa": rp, "r_n": r_n,
-        "die_temp_c": die, "ambient_temp_c": ambient,
-        "shim20_mm": settings[:, 0], "shim21_mm": settings[:, 1],
-        "cushion_c1_kn": settings[:, 2], "cushion_c2_kn": settings[:, 3],
-        "cushion_c3_kn": settings[:, 4], "cushion_c4_kn": settings[:, 5],
-    })
+    production = pd.DataFrame(
+        {
+            "timestamp": stamps.strftime("%Y-%m-%d %H:%M:%S"),
+            "stroke_counter": strokes,
+            "coil_id": [f"K{26000 + c:05d}" for c in coil],
+            "shift": shift,
+            "thickness_mm": thickness,
+            "rm_mpa": rm,
+            "rp02_mpa": rp,
+            "r_n": r_n,
+            "die_temp_c": die,
+            "ambient_temp_c": ambient,
+            "shim20_mm": settings[:, 0],
+            "shim21_mm": settings[:, 1],
+            "cushion_c1_kn": settings[:, 2],
+            "cushion_c2_kn": settings[:, 3],
+            "cushion_c3_kn": settings[:, 4],
+            "cushion_c4_kn": settings[:, 5],
+        }
+    )
     return production.round({name: 4 for name in INPUT_NAMES})
 
 
@@ -268,8 +285,9 @@ def generate(plant: DemoPlant) -> dict[str, pd.DataFrame]:
         "production": production,
         "matched": matched,
         "production_truth": pd.DataFrame({"truth_mm": truth, "simulator_mm": simulator(production)}),
-        "matched_truth": pd.DataFrame({"case": matched["case"], "truth_mm": matched_truth,
-                                       "simulator_mm": simulator(matched)}),
+        "matched_truth": pd.DataFrame(
+            {"case": matched["case"], "truth_mm": matched_truth, "simulator_mm": simulator(matched)}
+        ),
     }
 
 

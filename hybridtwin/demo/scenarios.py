@@ -6,6 +6,7 @@ families of :mod:`.families` (:data:`FAMILIES`). Used by the tests and by
 that the extension never makes the paper's hybrid worse out of the support.
 The workflow runs the same package functions step by step from files.
 """
+
 from __future__ import annotations
 
 import time
@@ -24,8 +25,17 @@ from . import plant as demo
 from .families import Expected, PlantCase, draw_plant
 
 # A fixed, moderate XGBoost setting stands in for the tuned one to keep scenarios fast.
-SCENARIO_XGB = dict(n_estimators=300, max_depth=5, learning_rate=0.05, subsample=0.8, colsample_bytree=0.8,
-                    min_child_weight=5, gamma=0.5, reg_alpha=0.1, reg_lambda=1.0)
+SCENARIO_XGB = dict(
+    n_estimators=300,
+    max_depth=5,
+    learning_rate=0.05,
+    subsample=0.8,
+    colsample_bytree=0.8,
+    min_child_weight=5,
+    gamma=0.5,
+    reg_alpha=0.1,
+    reg_lambda=1.0,
+)
 
 # plants whose support holds fewer parts are redrawn: the method needs data to learn from
 MIN_IN_SUPPORT = 0.07
@@ -61,27 +71,38 @@ def random_scenario(kind: str, rng: np.random.Generator, n_production: int = 70_
     sign = rng.choice([-1.0, 1.0])
     H = demo.HiddenEffect
     if kind == "temperature":
-        return Scenario(H("sigmoid", "die_temp_c", sign * rng.uniform(12, 22), width=rng.uniform(2.0, 3.5)),
-                        Expected("die_temp_c", ("sigmoid",)), rng.uniform(0.35, 0.75))
+        return Scenario(
+            H("sigmoid", "die_temp_c", sign * rng.uniform(12, 22), width=rng.uniform(2.0, 3.5)),
+            Expected("die_temp_c", ("sigmoid",)),
+            rng.uniform(0.35, 0.75),
+        )
     if kind == "shim_step":
         column = str(rng.choice(["shim20_mm", "shim21_mm"]))
         # settings come in a few levels, so a steep sigmoid and a step fit alike: both are threshold forms
-        return Scenario(H("step", column, sign * rng.uniform(5, 8)), Expected(column, ("step", "sigmoid")),
-                        rng.uniform(0.3, 0.7))
+        return Scenario(
+            H("step", column, sign * rng.uniform(5, 8)), Expected(column, ("step", "sigmoid")), rng.uniform(0.3, 0.7)
+        )
     if kind == "stroke_drift":
         # drawn as its spread over the parts in support (what the method sees); the log's other strokes carry it further
-        return Scenario(H("linear", "stroke_counter", 0.0, 250_000.0 + n_production / 2),
-                        Expected("stroke_counter", ("linear",), monotone=True), in_support_std=sign * rng.uniform(1.8, 3.0))
+        return Scenario(
+            H("linear", "stroke_counter", 0.0, 250_000.0 + n_production / 2),
+            Expected("stroke_counter", ("linear",), monotone=True),
+            in_support_std=sign * rng.uniform(1.8, 3.0),
+        )
     if kind == "coil_offset":
         # coils shorter than a run, so that coil offsets are not confounded with one campaign each
-        return Scenario(H("group", "coil_id", rng.uniform(2.5, 4.0)), Expected("coil_id", ("group",)),
-                        blanks_per_coil=600)
+        return Scenario(
+            H("group", "coil_id", rng.uniform(2.5, 4.0)), Expected("coil_id", ("group",)), blanks_per_coil=600
+        )
     if kind == "rp02_slope":
-        return Scenario(H("linear", "rp02_mpa", sign * rng.uniform(0.25, 0.40), 215.0), Expected("rp02_mpa", ("linear",)))
+        return Scenario(
+            H("linear", "rp02_mpa", sign * rng.uniform(0.25, 0.40), 215.0), Expected("rp02_mpa", ("linear",))
+        )
     if kind == "interaction":
         a, b = rng.choice(["shim20_mm", "shim21_mm"]), rng.choice(["cushion_c1_kn", "cushion_c2_kn", "cushion_c3_kn"])
-        return Scenario(H("product", str(a), sign * rng.uniform(15, 25), column_b=str(b)),
-                        Expected(f"{a}*{b}", ("product",)))
+        return Scenario(
+            H("product", str(a), sign * rng.uniform(15, 25), column_b=str(b)), Expected(f"{a}*{b}", ("product",))
+        )
     if kind == "none":
         return Scenario(H(), Expected(None, ()))
     raise ValueError(f"unknown scenario kind {kind!r}")
@@ -168,8 +189,13 @@ class Outcome:
         """What the tests ask of the diagnosis: the cause (or an honestly reported alias) and its form, or nothing."""
         if self.expected.cause is None:
             return self.n_significant == 0
-        return (self.top_significant and self.named_or_aliased and self.form_ok and self.alias_reported
-                and self.others_found)
+        return (
+            self.top_significant
+            and self.named_or_aliased
+            and self.form_ok
+            and self.alias_reported
+            and self.others_found
+        )
 
     @property
     def no_worse(self) -> bool:
@@ -182,8 +208,10 @@ class Outcome:
         # the extended hybrid is the paper's hybrid with the named cause added: the like-for-like comparison;
         # against the truth, as the measured error holds the noise floor, which no model can lower
         if self.generator == "demo" and self.kind in EXTRAPOLATING:
-            return (self.rmse_oos_extended_hybrid_truth < WELL_BELOW * self.rmse_oos_hybrid_truth
-                    and self.rmse_oos_extended_hybrid < self.rmse_oos_hybrid)
+            return (
+                self.rmse_oos_extended_hybrid_truth < WELL_BELOW * self.rmse_oos_hybrid_truth
+                and self.rmse_oos_extended_hybrid < self.rmse_oos_hybrid
+            )
         return self.no_worse
 
     @property
@@ -198,8 +226,11 @@ class Outcome:
         """The baseline: the column with the largest mean |TreeSHAP| is the hidden cause (or its near-copy)."""
         if self.expected.cause is None:
             return False
-        return named(self.expected, self.shap_top) or self.shap_top == self.expected.alias or (
-            "*" in self.expected.cause and self.shap_top in self.expected.cause.split("*"))
+        return (
+            named(self.expected, self.shap_top)
+            or self.shap_top == self.expected.alias
+            or ("*" in self.expected.cause and self.shap_top in self.expected.cause.split("*"))
+        )
 
 
 def demo_case(kind: str, seed: int, n_production: int = 70_000) -> PlantCase:
@@ -208,8 +239,13 @@ def demo_case(kind: str, seed: int, n_production: int = 70_000) -> PlantCase:
     scenario = random_scenario(kind, rng, n_production)
     inputs, target = demo.INPUT_NAMES, demo.TARGET
     for _ in range(20):  # a plant whose support holds enough parts and coils to learn from
-        plant = replace(demo.DemoPlant(), seed=int(rng.integers(1 << 31)), n_production=n_production,
-                        blanks_per_coil=scenario.blanks_per_coil, hidden_effect=demo.HiddenEffect())
+        plant = replace(
+            demo.DemoPlant(),
+            seed=int(rng.integers(1 << 31)),
+            n_production=n_production,
+            blanks_per_coil=scenario.blanks_per_coil,
+            hidden_effect=demo.HiddenEffect(),
+        )
         blank = demo.generate(plant)  # the same parts as below, before the effect is added
         production, doe = blank["production"], blank["doe"]
         inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
@@ -220,15 +256,32 @@ def demo_case(kind: str, seed: int, n_production: int = 70_000) -> PlantCase:
         threshold = float(np.quantile(production.loc[inside, effect.column], scenario.threshold_quantile))
         effect = replace(effect, threshold=round(threshold, 4))
     if scenario.in_support_std is not None:
-        effect = replace(effect, amplitude=scenario.in_support_std / float(np.std(production.loc[inside, effect.column])))
+        effect = replace(
+            effect, amplitude=scenario.in_support_std / float(np.std(production.loc[inside, effect.column]))
+        )
     plant = replace(plant, hidden_effect=effect)
     data = demo.generate(plant)  # same seed: the same parts (less the matched trials), with the effect
-    return PlantCase(kind, effect.describe(), doe, data["production"], data["production_truth"]["truth_mm"].to_numpy(float),
-                     list(inputs), target, scenario.expected, plant.noise_mm)
+    return PlantCase(
+        kind,
+        effect.describe(),
+        doe,
+        data["production"],
+        data["production_truth"]["truth_mm"].to_numpy(float),
+        list(inputs),
+        target,
+        scenario.expected,
+        plant.noise_mm,
+    )
 
 
-def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int = 1,
-                 settings: diagnosis.Settings | None = None, generator: str = "demo") -> Outcome:
+def run_scenario(
+    kind: str,
+    seed: int,
+    n_production: int = 70_000,
+    n_jobs: int = 1,
+    settings: diagnosis.Settings | None = None,
+    generator: str = "demo",
+) -> Outcome:
     """Generate a plant with a random hidden effect of ``kind``, diagnose it, extend, and score out of support.
 
     ``generator``: "demo" (kinds :data:`KINDS`, ``n_production`` parts) or "families" (:data:`FAMILIES`,
@@ -243,8 +296,9 @@ def run_scenario(kind: str, seed: int, n_production: int = 70_000, n_jobs: int =
     return evaluate(case, seed, n_jobs, settings, generator)
 
 
-def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Settings | None = None,
-             generator: str = "demo") -> Outcome:
+def evaluate(
+    case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Settings | None = None, generator: str = "demo"
+) -> Outcome:
     """The method on a generated plant: gate, surrogate, diagnosis, hybrid and extension; scored out of support."""
     inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
     inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
@@ -253,8 +307,14 @@ def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Se
     r = production[target].to_numpy(float) - mean
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
     start = time.perf_counter()
-    result = diagnosis.diagnose(production.loc[inside].drop(columns=[target]), r[inside], inputs, [target], settings,
-                                surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_))
+    result = diagnosis.diagnose(
+        production.loc[inside].drop(columns=[target]),
+        r[inside],
+        inputs,
+        [target],
+        settings,
+        surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_),
+    )
     seconds = time.perf_counter() - start
     X = production[inputs].to_numpy(float)
     rows = np.flatnonzero(inside)
@@ -269,16 +329,37 @@ def evaluate(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Se
     measured, truth = production[target].to_numpy(float), case.truth
     outside = ~inside
     top = result.table.iloc[0]
-    chosen = tuple(Chosen(f.candidate.name, f.form.name, _monotone(f.form.predict(f.candidate.values), f.candidate.values),
-                          tuple(result.aliases.get(f.candidate.name, ()))) for f in result.selected)
-    return Outcome(case.family, case.description, case.expected, str(top["cause"]), str(top["form"]),
-                   bool(top["significant"]), int(result.table["significant"].sum()), int(inside.sum()),
-                   rmse(measured[outside], hybrid[outside]), rmse(measured[outside], extended[outside]),
-                   rmse(measured[outside], extended_hybrid[outside]), rmse(truth[outside], extended[outside]),
-                   rmse(truth[outside], extended_hybrid[outside]), rmse(truth[outside], hybrid[outside]),
-                   case.noise, seconds, chosen, shap_top_column(production.loc[inside].drop(columns=[target]), r[inside],
-                                                                seed, n_jobs),
-                   generator, case.confounding)
+    chosen = tuple(
+        Chosen(
+            f.candidate.name,
+            f.form.name,
+            _monotone(f.form.predict(f.candidate.values), f.candidate.values),
+            tuple(result.aliases.get(f.candidate.name, ())),
+        )
+        for f in result.selected
+    )
+    return Outcome(
+        case.family,
+        case.description,
+        case.expected,
+        str(top["cause"]),
+        str(top["form"]),
+        bool(top["significant"]),
+        int(result.table["significant"].sum()),
+        int(inside.sum()),
+        rmse(measured[outside], hybrid[outside]),
+        rmse(measured[outside], extended[outside]),
+        rmse(measured[outside], extended_hybrid[outside]),
+        rmse(truth[outside], extended[outside]),
+        rmse(truth[outside], extended_hybrid[outside]),
+        rmse(truth[outside], hybrid[outside]),
+        case.noise,
+        seconds,
+        chosen,
+        shap_top_column(production.loc[inside].drop(columns=[target]), r[inside], seed, n_jobs),
+        generator,
+        case.confounding,
+    )
 
 
 def shap_top_column(frame, residual_values, seed: int, n_jobs: int = 1) -> str:
@@ -308,8 +389,15 @@ def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
 COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "stack", "recommended")
 
 
-def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Settings | None = None,
-                   peer_settings: dict | None = None, folds: int = 5, level: float = 0.9) -> dict:
+def compare_models(
+    case: PlantCase,
+    seed: int,
+    n_jobs: int = 1,
+    settings: diagnosis.Settings | None = None,
+    peer_settings: dict | None = None,
+    folds: int = 5,
+    level: float = 0.9,
+) -> dict:
     """The paper's hybrid, the extension, the two peers, their stack and the recommended model on one plant.
 
     As the workflow does it: every model fitted on the DoE and the in-support parts; honest predictions
@@ -331,8 +419,14 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
     measured = production[target].to_numpy(float)
     r = measured - mean
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
-    result = diagnosis.diagnose(production.loc[inside].drop(columns=[target]), r[inside], inputs, [target], settings,
-                                surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_))
+    result = diagnosis.diagnose(
+        production.loc[inside].drop(columns=[target]),
+        r[inside],
+        inputs,
+        [target],
+        settings,
+        surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_),
+    )
     X = production[inputs].to_numpy(float)
     rows = np.flatnonzero(inside)
 
@@ -346,10 +440,20 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
     models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
     extended = mean + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
-    oof_extended, oof_extended_hybrid = cross_validated(production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits)
-    frame = pd.DataFrame({"in_support": inside, "knn_distance": distance, "measured": measured, "pred_surrogate": mean,
-                          "pred_hybrid_oof": hybrid, "pred_extended_oof": extended,
-                          "pred_extended_hybrid_oof": extended_hybrid})
+    oof_extended, oof_extended_hybrid = cross_validated(
+        production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits
+    )
+    frame = pd.DataFrame(
+        {
+            "in_support": inside,
+            "knn_distance": distance,
+            "measured": measured,
+            "pred_surrogate": mean,
+            "pred_hybrid_oof": hybrid,
+            "pred_extended_oof": extended,
+            "pred_extended_hybrid_oof": extended_hybrid,
+        }
+    )
     frame.loc[rows, "pred_hybrid_oof"] = mean[rows] + hybrid_oof
     frame.loc[rows, "pred_extended_oof"] = mean[rows] + oof_extended
     frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
@@ -359,11 +463,13 @@ def compare_models(case: PlantCase, seed: int, n_jobs: int = 1, settings: diagno
         fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed)
         frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
-    calibrated = intervals.calibrate(frame, production[inputs], doe_range, gate.threshold_, level, 4, 20, seed,
-                                     case.truth)
+    calibrated = intervals.calibrate(
+        frame, production[inputs], doe_range, gate.threshold_, level, 4, 20, seed, case.truth
+    )
     honest = dict(calibrated.honest)
-    honest["recommended"] = intervals.recommended_prediction(calibrated.intervals, calibrated.honest,
-                                                             calibrated.region, level)["pred_recommended"].to_numpy()
+    honest["recommended"] = intervals.recommended_prediction(
+        calibrated.intervals, calibrated.honest, calibrated.region, level
+    )["pred_recommended"].to_numpy()
     test = ~calibrated.calibration
     scored = {}
     for model in COMPARED_MODELS:

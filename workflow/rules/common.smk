@@ -47,16 +47,21 @@ CHECKED_AGAINST = {"doe": [], "production": ["doe"], "matched": ["production"]}
 
 
 def raw_inputs_of(wildcards):
-    return {"table": config["data"][wildcards.role],
-            **{other: config["data"][other] for other in CHECKED_AGAINST[wildcards.role]}}
+    return {
+        "table": config["data"][wildcards.role],
+        **{other: config["data"][other] for other in CHECKED_AGAINST[wildcards.role]},
+    }
 
 
 def validation_settings(wildcards):
     """The config a file's check reads: its own path and those it is checked against, columns, format
     (and, for the DoE, the folds and k it must have rows for)."""
     roles = [wildcards.role, *CHECKED_AGAINST[wildcards.role]]
-    settings = {"data": {role: config["data"][role] for role in roles}, "columns": config["columns"],
-                "csv": config["csv"]}
+    settings = {
+        "data": {role: config["data"][role] for role in roles},
+        "columns": config["columns"],
+        "csv": config["csv"],
+    }
     if "doe" in roles:
         settings.update(cv=config["cv"], gate=config["gate"])
     return settings
@@ -71,17 +76,31 @@ def benchmark_of(rule_name, suffix=""):
 
 
 def final_outputs():
-    tables = ["table1_datasets", "table2_surrogate_cv", "table3_residual_cv", "table4_hyperparameters",
-              "table5_sensitivity", "matched_check", "discrepancy_causes", "model_extension"]
+    tables = [
+        "table1_datasets",
+        "table2_surrogate_cv",
+        "table3_residual_cv",
+        "table4_hyperparameters",
+        "table5_sensitivity",
+        "matched_check",
+        "discrepancy_causes",
+        "model_extension",
+    ]
     figures_of_causes = [f"cause_{rank}" for rank in range(1, config["diagnosis"]["n_figures"] + 1)]
     figures = ["figure2_residual_check", "figure3_error_distributions", "support_distances", "surrogate_parity"]
     return (
         [f"{TABLES}/{name}.csv" for name in tables]
         + [f"{FIGURES}/{name}.png" for name in figures + figures_of_causes]
-        + [f"{RESULTS}/predictions/production.csv", f"{RESULTS}/synthetic/doe_corrected.csv",
-           f"{RESULTS}/synthetic/support_samples.csv", f"{RESULTS}/diagnosis.md",
-           f"{TABLES}/prediction_intervals.csv", f"{TABLES}/peer_comparison.csv", f"{MODELS}/predictor.json",
-           f"{RESULTS}/enrichment/proposed_simulations.csv"]
+        + [
+            f"{RESULTS}/predictions/production.csv",
+            f"{RESULTS}/synthetic/doe_corrected.csv",
+            f"{RESULTS}/synthetic/support_samples.csv",
+            f"{RESULTS}/diagnosis.md",
+            f"{TABLES}/prediction_intervals.csv",
+            f"{TABLES}/peer_comparison.csv",
+            f"{MODELS}/predictor.json",
+            f"{RESULTS}/enrichment/proposed_simulations.csv",
+        ]
         + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
     )
 

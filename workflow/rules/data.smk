@@ -9,15 +9,15 @@ rule demo_data:
         production_truth=f"{DEMO}/production_truth.csv",
         matched_truth=f"{DEMO}/matched_truth.csv",
         spec=f"{DEMO}/demo_spec.json",
-    params:
-        code=PACKAGE_CODE,
-        demo=config["demo"],
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("demo_data"),
     benchmark:
         benchmark_of("demo_data")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        demo=config["demo"],
     script:
         "../../scripts/demo_data.py"
 
@@ -29,17 +29,17 @@ rule validate_inputs:
     output:
         table=f"{RESULTS}/data/{{role}}.csv",
         report=f"{RESULTS}/data/validation_{{role}}.txt",
-    wildcard_constraints:
-        role="doe|production|matched",
-    params:
-        code=PACKAGE_CODE,
-        settings=validation_settings,
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("validate_inputs", "_{role}"),
     benchmark:
         benchmark_of("validate_inputs", "_{role}")
+    wildcard_constraints:
+        role="doe|production|matched",
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        settings=validation_settings,
     script:
         "../../scripts/validate_inputs.py"
 
@@ -50,15 +50,15 @@ rule standardize:
     output:
         model=f"{MODELS}/doe_standardization.json",
         table=f"{TABLES}/doe_standardization.csv",
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("standardize"),
     benchmark:
         benchmark_of("standardize")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
     script:
         "../../scripts/standardize.py"
 
@@ -71,20 +71,23 @@ rule support_gate:
     output:
         model=f"{MODELS}/support_gate.json",
         production=f"{RESULTS}/support/production_support.csv",
-        figure=report(f"{FIGURES}/support_distances.png", caption="../report/support_distances.rst",
-                      category="1. Data and support"),
+        figure=report(
+            f"{FIGURES}/support_distances.png",
+            caption="../report/support_distances.rst",
+            category="1. Data and support",
+        ),
+    log:
+        log_of("support_gate"),
+    benchmark:
+        benchmark_of("support_gate")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
         paths=config["data"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("support_gate"),
-    benchmark:
-        benchmark_of("support_gate")
     script:
         "../../scripts/support_gate.py"
 
@@ -96,16 +99,16 @@ rule matched_support:
         gate=rules.support_gate.output.model,
     output:
         support=f"{RESULTS}/support/matched_support.csv",
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-        paths=config["data"],
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("matched_support"),
     benchmark:
         benchmark_of("matched_support")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        paths=config["data"],
     script:
         "../../scripts/matched_support.py"
 
@@ -117,15 +120,15 @@ rule table1:
         support=rules.support_gate.output.production,
     output:
         table=report(f"{TABLES}/table1_datasets.csv", caption="../report/table1.rst", category="1. Data and support"),
-    params:
-        code=PACKAGE_CODE,
-        k=config["gate"]["k"],
-        percentile=config["gate"]["percentile"],
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("table1"),
     benchmark:
         benchmark_of("table1")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        k=config["gate"]["k"],
+        percentile=config["gate"]["percentile"],
     script:
         "../../scripts/table1.py"

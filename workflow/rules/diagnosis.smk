@@ -9,14 +9,22 @@ rule diagnose:
         residuals=rules.residuals.output.residuals,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        table=report(f"{TABLES}/discrepancy_causes.csv", caption="../report/discrepancy_causes.rst",
-                     category="6. Diagnosis"),
+        table=report(
+            f"{TABLES}/discrepancy_causes.csv", caption="../report/discrepancy_causes.rst", category="6. Diagnosis"
+        ),
         summary=f"{RESULTS}/diagnosis/diagnosis.json",
         figures=report(
             expand(f"{FIGURES}/cause_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
             caption="../report/cause_figure.rst",
             category="6. Diagnosis",
         ),
+    log:
+        log_of("diagnose"),
+    benchmark:
+        benchmark_of("diagnose")
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -24,13 +32,6 @@ rule diagnose:
         folds=FOLDS,
         seed=SEED,
         settings={k: v for k, v in config["diagnosis"].items() if k != "n_figures"},
-    threads: 2
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("diagnose"),
-    benchmark:
-        benchmark_of("diagnose")
     script:
         "../../scripts/diagnose.py"
 
@@ -46,25 +47,24 @@ rule model_extension:
         summary=rules.diagnose.output.summary,
         best=rules.tune_residual.output.best,
     output:
-        table=report(f"{TABLES}/model_extension.csv", caption="../report/model_extension.rst",
-                     category="6. Diagnosis"),
+        table=report(f"{TABLES}/model_extension.csv", caption="../report/model_extension.rst", category="6. Diagnosis"),
         extension=f"{MODELS}/extension.json",
         remainder=f"{MODELS}/residual_xgb_extended.json",
         predictions=f"{RESULTS}/predictions/extension.csv",
         matched_predictions=f"{RESULTS}/predictions/matched_models.csv",
+    log:
+        log_of("model_extension"),
+    benchmark:
+        benchmark_of("model_extension")
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
         matched_measured=config["columns"]["matched_measured"],
-    threads: 2
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("model_extension"),
-    benchmark:
-        benchmark_of("model_extension")
     script:
         "../../scripts/model_extension.py"
 
@@ -76,14 +76,14 @@ rule production_predictions:
         peers=expand(f"{RESULTS}/peers/{{peer}}_production.csv", peer=PEERS),
     output:
         predictions=f"{RESULTS}/predictions/production.csv",
-    params:
-        code=PACKAGE_CODE,
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("production_predictions"),
     benchmark:
         benchmark_of("production_predictions")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
     script:
         "../../scripts/production_predictions.py"
 
@@ -96,15 +96,15 @@ rule diagnosis_report:
         gain=rules.model_extension.output.table,
     output:
         report=report(f"{RESULTS}/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
-    params:
-        code=PACKAGE_CODE,
-        target=TARGET,
-        unit=config["units"]["target"],
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("diagnosis_report"),
     benchmark:
         benchmark_of("diagnosis_report")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        target=TARGET,
+        unit=config["units"]["target"],
     script:
         "../../scripts/diagnosis_report.py"

@@ -8,12 +8,23 @@ rule propose_simulations:
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        table=report(f"{RESULTS}/enrichment/proposed_simulations.csv", caption="../report/proposed_simulations.rst",
-                     category="8. Next simulations"),
-        share=report(f"{FIGURES}/enrichment_share.png", caption="../report/enrichment_share.rst",
-                     category="8. Next simulations"),
-        map=report(f"{FIGURES}/enrichment_map.png", caption="../report/enrichment_map.rst",
-                   category="8. Next simulations"),
+        table=report(
+            f"{RESULTS}/enrichment/proposed_simulations.csv",
+            caption="../report/proposed_simulations.rst",
+            category="8. Next simulations",
+        ),
+        share=report(
+            f"{FIGURES}/enrichment_share.png", caption="../report/enrichment_share.rst", category="8. Next simulations"
+        ),
+        map=report(
+            f"{FIGURES}/enrichment_map.png", caption="../report/enrichment_map.rst", category="8. Next simulations"
+        ),
+    log:
+        log_of("propose_simulations"),
+    benchmark:
+        benchmark_of("propose_simulations")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -21,11 +32,5 @@ rule propose_simulations:
         percentile=config["gate"]["percentile"],
         seed=SEED,
         settings=config["enrichment"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("propose_simulations"),
-    benchmark:
-        benchmark_of("propose_simulations")
     script:
         "../../scripts/propose_simulations.py"

@@ -12,15 +12,15 @@ rule predict_production:
         unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.csv",
     output:
         predictions=f"{RESULTS}/predictions/hybrid.csv",
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("predict_production"),
     benchmark:
         benchmark_of("predict_production")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
     script:
         "../../scripts/predict_production.py"
 
@@ -33,22 +33,24 @@ rule matched_check:
         model=f"{MODELS}/residual_xgb_filtered.json",
         predictions=rules.predict_production.output.predictions,
     output:
-        summary=report(f"{TABLES}/matched_check.csv", caption="../report/matched_check.rst",
-                       category="4. Hybrid evaluation"),
+        summary=report(
+            f"{TABLES}/matched_check.csv", caption="../report/matched_check.rst", category="4. Hybrid evaluation"
+        ),
         cases=f"{TABLES}/matched_cases.csv",
-        figure=report(f"{FIGURES}/figure2_residual_check.png", caption="../report/figure2.rst",
-                      category="4. Hybrid evaluation"),
+        figure=report(
+            f"{FIGURES}/figure2_residual_check.png", caption="../report/figure2.rst", category="4. Hybrid evaluation"
+        ),
+    log:
+        log_of("matched_check"),
+    benchmark:
+        benchmark_of("matched_check")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         matched_simulated=config["columns"]["matched_simulated"],
         matched_measured=config["columns"]["matched_measured"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("matched_check"),
-    benchmark:
-        benchmark_of("matched_check")
     script:
         "../../scripts/matched_check.py"
 
@@ -58,16 +60,19 @@ rule figure_errors:
         predictions=rules.predict_production.output.predictions,
         cases=rules.matched_check.output.cases,
     output:
-        figure=report(f"{FIGURES}/figure3_error_distributions.png", caption="../report/figure3.rst",
-                      category="4. Hybrid evaluation"),
-    params:
-        code=PACKAGE_CODE,
-    conda:
-        "../envs/hybridtwin.yaml"
+        figure=report(
+            f"{FIGURES}/figure3_error_distributions.png",
+            caption="../report/figure3.rst",
+            category="4. Hybrid evaluation",
+        ),
     log:
         log_of("figure_errors"),
     benchmark:
         benchmark_of("figure_errors")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
     script:
         "../../scripts/figure_errors.py"
 
@@ -76,16 +81,17 @@ rule sensitivity:
     input:
         predictions=rules.predict_production.output.predictions,
     output:
-        table=report(f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst",
-                     category="4. Hybrid evaluation"),
-    params:
-        code=PACKAGE_CODE,
-    conda:
-        "../envs/hybridtwin.yaml"
+        table=report(
+            f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst", category="4. Hybrid evaluation"
+        ),
     log:
         log_of("sensitivity"),
     benchmark:
         benchmark_of("sensitivity")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
     script:
         "../../scripts/sensitivity.py"
 
@@ -97,20 +103,21 @@ rule synthetic:
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",
     output:
-        doe=report(f"{RESULTS}/synthetic/doe_corrected.csv", caption="../report/synthetic.rst",
-                   category="5. Synthetic data"),
+        doe=report(
+            f"{RESULTS}/synthetic/doe_corrected.csv", caption="../report/synthetic.rst", category="5. Synthetic data"
+        ),
         support=f"{RESULTS}/synthetic/support_samples.csv",
+    log:
+        log_of("synthetic"),
+    benchmark:
+        benchmark_of("synthetic")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,
         n_samples=config["synthetic"]["n_samples"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("synthetic"),
-    benchmark:
-        benchmark_of("synthetic")
     script:
         "../../scripts/synthetic.py"

@@ -10,19 +10,19 @@ rule peer:
         model=f"{MODELS}/peer_{{peer}}.json",
         predictions=f"{RESULTS}/peers/{{peer}}_production.csv",
         summary=f"{RESULTS}/peers/{{peer}}.json",
+    log:
+        log_of("peer", "_{peer}"),
+    benchmark:
+        benchmark_of("peer", "_{peer}")
     wildcard_constraints:
         peer="gp_discrepancy|cokriging",
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,
         settings=config["peers"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("peer", "_{peer}"),
-    benchmark:
-        benchmark_of("peer", "_{peer}")
     script:
         "../../scripts/peer.py"

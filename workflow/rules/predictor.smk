@@ -16,12 +16,25 @@ rule prediction_intervals:
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
-        comparison=report(f"{TABLES}/peer_comparison.csv", caption="../report/peer_comparison.rst",
-                          category="7. What-if predictions"),
-        table=report(f"{TABLES}/prediction_intervals.csv", caption="../report/prediction_intervals.rst",
-                     category="7. What-if predictions"),
-        figure=report(f"{FIGURES}/prediction_intervals.png", caption="../report/prediction_intervals_figure.rst",
-                      category="7. What-if predictions"),
+        comparison=report(
+            f"{TABLES}/peer_comparison.csv", caption="../report/peer_comparison.rst", category="7. What-if predictions"
+        ),
+        table=report(
+            f"{TABLES}/prediction_intervals.csv",
+            caption="../report/prediction_intervals.rst",
+            category="7. What-if predictions",
+        ),
+        figure=report(
+            f"{FIGURES}/prediction_intervals.png",
+            caption="../report/prediction_intervals_figure.rst",
+            category="7. What-if predictions",
+        ),
+    log:
+        log_of("prediction_intervals"),
+    benchmark:
+        benchmark_of("prediction_intervals")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -31,12 +44,6 @@ rule prediction_intervals:
         matched_measured=config["columns"]["matched_measured"],
         seed=SEED,
         settings=config["intervals"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("prediction_intervals"),
-    benchmark:
-        benchmark_of("prediction_intervals")
     script:
         "../../scripts/prediction_intervals.py"
 
@@ -45,20 +52,25 @@ rule whatif:
     input:
         whatif=config.get("whatif") or [],
         manifest=rules.prediction_intervals.output.manifest,
-        models=[rules.surrogate_fit.output.model, rules.support_gate.output.model,
-                f"{MODELS}/residual_xgb_filtered.json", f"{MODELS}/residual_xgb_unfiltered.json",
-                rules.model_extension.output.extension, rules.model_extension.output.remainder,
-                expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS)],
+        models=[
+            rules.surrogate_fit.output.model,
+            rules.support_gate.output.model,
+            f"{MODELS}/residual_xgb_filtered.json",
+            f"{MODELS}/residual_xgb_unfiltered.json",
+            rules.model_extension.output.extension,
+            rules.model_extension.output.remainder,
+            expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS),
+        ],
     output:
         predictions=f"{RESULTS}/predictions/whatif.csv",
-    params:
-        code=PACKAGE_CODE,
-        level=config["intervals"]["level"],
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("whatif"),
     benchmark:
         benchmark_of("whatif")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        level=config["intervals"]["level"],
     script:
         "../../scripts/whatif.py"

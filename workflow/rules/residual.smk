@@ -8,8 +8,16 @@ rule tune_residual:
     output:
         best=f"{RESULTS}/tuning/best_params.json",
         trials=f"{RESULTS}/tuning/trials.csv",
-        table=report(f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst",
-                     category="3. Residual model"),
+        table=report(
+            f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst", category="3. Residual model"
+        ),
+    log:
+        log_of("tune_residual"),
+    benchmark:
+        benchmark_of("tune_residual")
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -20,13 +28,6 @@ rule tune_residual:
         search_space=config["tuning"]["search_space"],
         # the study journal lives outside the outputs, so a killed run resumes it
         storage=config["tuning"]["storage"] or f"{RESULTS}/optuna/journal.log",
-    threads: 2
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("tune_residual"),
-    benchmark:
-        benchmark_of("tune_residual")
     script:
         "../../scripts/tune_residual.py"
 
@@ -40,20 +41,20 @@ rule residual_cv:
         folds=f"{RESULTS}/residuals/cv_folds_{{training}}.csv",
         oof=f"{RESULTS}/residuals/oof_{{training}}.csv",
         table=f"{RESULTS}/residuals/cv_{{training}}.csv",
+    log:
+        log_of("residual_cv", "_{training}"),
+    benchmark:
+        benchmark_of("residual_cv", "_{training}")
     wildcard_constraints:
         training="filtered|unfiltered",
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
-    threads: 2
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("residual_cv", "_{training}"),
-    benchmark:
-        benchmark_of("residual_cv", "_{training}")
     script:
         "../../scripts/residual_cv.py"
 
@@ -62,16 +63,15 @@ rule table3:
     input:
         table=f"{RESULTS}/residuals/cv_filtered.csv",
     output:
-        table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst",
-                     category="3. Residual model"),
-    params:
-        code=PACKAGE_CODE,
-    conda:
-        "../envs/hybridtwin.yaml"
+        table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst", category="3. Residual model"),
     log:
         log_of("table3"),
     benchmark:
         benchmark_of("table3")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
     shell:
         "cp {input.table} {output.table}.tmp 2> {log} && mv {output.table}.tmp {output.table}"
 
@@ -83,18 +83,18 @@ rule residual_fit:
         best=rules.tune_residual.output.best,
     output:
         model=f"{MODELS}/residual_xgb_{{training}}.json",
-    wildcard_constraints:
-        training="filtered|unfiltered",
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-        seed=SEED,
-    threads: 2
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("residual_fit", "_{training}"),
     benchmark:
         benchmark_of("residual_fit", "_{training}")
+    wildcard_constraints:
+        training="filtered|unfiltered",
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        seed=SEED,
     script:
         "../../scripts/residual_fit.py"

@@ -7,8 +7,15 @@ rule surrogate_cv:
     output:
         table=report(f"{TABLES}/table2_surrogate_cv.csv", caption="../report/table2.rst", category="2. Surrogate"),
         folds=f"{TABLES}/surrogate_cv_folds.csv",
-        figure=report(f"{FIGURES}/surrogate_parity.png", caption="../report/surrogate_parity.rst",
-                      category="2. Surrogate"),
+        figure=report(
+            f"{FIGURES}/surrogate_parity.png", caption="../report/surrogate_parity.rst", category="2. Surrogate"
+        ),
+    log:
+        log_of("surrogate_cv"),
+    benchmark:
+        benchmark_of("surrogate_cv")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -16,12 +23,6 @@ rule surrogate_cv:
         folds=FOLDS,
         seed=SEED,
         n_restarts=config["surrogate"]["n_restarts"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("surrogate_cv"),
-    benchmark:
-        benchmark_of("surrogate_cv")
     script:
         "../../scripts/surrogate_cv.py"
 
@@ -31,18 +32,18 @@ rule surrogate_fit:
         doe=CHECKED["doe"],
     output:
         model=f"{MODELS}/surrogate_gpr.json",
+    log:
+        log_of("surrogate_fit"),
+    benchmark:
+        benchmark_of("surrogate_fit")
+    conda:
+        "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,
         n_restarts=config["surrogate"]["n_restarts"],
-    conda:
-        "../envs/hybridtwin.yaml"
-    log:
-        log_of("surrogate_fit"),
-    benchmark:
-        benchmark_of("surrogate_fit")
     script:
         "../../scripts/surrogate_fit.py"
 
@@ -54,15 +55,15 @@ rule residuals:
         surrogate=rules.surrogate_fit.output.model,
     output:
         residuals=f"{RESULTS}/residuals/production_residuals.csv",
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
-    conda:
-        "../envs/hybridtwin.yaml"
     log:
         log_of("residuals"),
     benchmark:
         benchmark_of("residuals")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        inputs=INPUTS,
+        target=TARGET,
     script:
         "../../scripts/residuals.py"
