@@ -19,6 +19,21 @@ def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nda
     return list(KFold(n_splits=n_folds, shuffle=True, random_state=seed).split(np.arange(n_rows)))
 
 
+def fold_ids(n_rows: int, n_folds: int, seed: int) -> np.ndarray:
+    """Each row's fold (1..n_folds) in :func:`folds`' split: written beside out-of-fold predictions so that
+    a later step scores on the very same split."""
+    ids = np.zeros(n_rows, int)
+    for fold, (_, test) in enumerate(folds(n_rows, n_folds, seed), start=1):
+        ids[test] = fold
+    return ids
+
+
+def splits_of(fold_ids) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The (train, test) index pairs of written fold ids, in fold order: :func:`folds`' split again."""
+    ids = np.asarray(fold_ids, int)
+    return [(np.flatnonzero(ids != fold), np.flatnonzero(ids == fold)) for fold in np.unique(ids)]
+
+
 def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) -> tuple[pd.DataFrame, np.ndarray]:
     """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only.
 

@@ -357,9 +357,9 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
     return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
 
 
-def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y, settings: Settings) -> Fit:
+def prefer_simpler(best: Fit, pool: list[Fit], y, rules: Rules) -> Fit:
     """Among other single-column candidates' fits that predict what the best one predicts, up to
-    ``min_effect`` (std of the difference), take the one with the fewest parameters.
+    ``rules.min_effect`` (std of the difference), take the one with the fewest parameters.
 
     The best candidate's own form is left to the held-out score: a saturating curve
     and a parabola may agree inside the support and part ways outside it.
@@ -379,7 +379,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y,
     """
 
     def equivalent(alt: Fit) -> bool:
-        return acceptable(alt) and predicts_the_same(alt, best, min_effect)
+        return rules.significant(alt) and predicts_the_same(alt, best, rules.min_effect)
 
     def simplest(fit: Fit) -> Fit | None:
         """A column counts as simple as its simplest form that predicts what the best one predicts."""
@@ -404,7 +404,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], min_effect: float, acceptable, y,
     for rival in ladder[1:]:
         # measured against the form the choice was counted by: a column needs more parameters than
         # that to match a simpler-counted one, it is not simpler
-        if better_held_out(rival[3], choice[4], y, settings):
+        if better_held_out(rival[3], choice[4], y, rules.settings):
             choice = rival
     return choice[3]
 
@@ -485,6 +485,25 @@ def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float
     )
 
 
+@dataclass(frozen=True)
+class Rules:
+    """What every step of the selection asks of a fit, fixed once per diagnosis: the settings, the number of
+    candidates tested (Bonferroni) and the least effect (the surrogate's own uncertainty times its margin)."""
+
+    settings: Settings
+    n_tests: int = 1
+    min_effect: float = 0.0
+
+    def significant(self, fit: Fit) -> bool:
+        return is_significant(fit, self.n_tests, self.settings, self.min_effect)
+
+    def best_fit(self, candidate: Candidate, y) -> Fit:
+        return best_fit(candidate, y, self.settings, self.min_effect)
+
+    def fit_all(self, candidates: list[Candidate], y) -> dict[str, Fit]:
+        return fit_all(candidates, y, self.settings, self.min_effect)
+
+
 # ---------------------------------------------------------------- diagnosis
 
 
@@ -509,19 +528,15 @@ def diagnose(
     blocks = block_means(residual, settings.n_blocks)
     offset_se = float(np.std(blocks, ddof=1) / np.sqrt(len(blocks)))
     candidates, skipped = build_candidates(frame, inputs, exclude, settings)
-    min_effect = settings.surrogate_margin * surrogate_std
-    n_tests = len(candidates)
+    rules = Rules(settings, n_tests=len(candidates), min_effect=settings.surrogate_margin * surrogate_std)
 
-    marginal = fit_all(candidates, y, settings, min_effect)
+    marginal = rules.fit_all(candidates, y)
 
     # forward selection, each step conditional on the causes already chosen
     selected: list[Fit] = []
     proxies: dict[str, tuple[str, float]] = {}  # id -> the cause named for it, and the share of its level differences
     conditional: dict[str, Fit] = dict(marginal)
     remaining = y
-
-    def acceptable(fit: Fit) -> bool:
-        return is_significant(fit, n_tests, settings, min_effect)
 
     def refit() -> tuple[np.ndarray, dict[str, Fit]]:
         """Joint fit of the chosen causes; what they leave, and every other candidate's fit to it."""
@@ -530,9 +545,7 @@ def diagnose(
         selected[:] = [dataclasses.replace(fit, form=model) for fit, model in zip(selected, models)]
         left = y - sum(m.predict(s.candidate.values) for s, m in zip(selected, models))
         chosen = {s.candidate.name for s in selected}
-        return left - left.mean(), fit_all(
-            [c for c in candidates if c.name not in chosen], left - left.mean(), settings, min_effect
-        )
+        return left - left.mean(), rules.fit_all([c for c in candidates if c.name not in chosen], left - left.mean())
 
     def forward() -> None:
         nonlocal remaining, conditional
@@ -544,46 +557,37 @@ def diagnose(
             ]  # a pair that is no interaction is not a candidate
             if not pool:
                 break
-            best = prefer_simpler(
-                min(pool, key=lambda fit: (fit.score, fit.candidate.name)),
-                pool,
-                min_effect,
-                acceptable,
-                remaining,
-                settings,
-            )
-            named, share = physical_cause(best, pool, remaining, acceptable)
+            best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, remaining, rules)
+            named, share = physical_cause(best, pool, remaining, rules.significant)
             if named is not best:
                 proxies[best.candidate.name] = (named.candidate.name, share)
-                best = prefer_simpler(named, pool, min_effect, acceptable, remaining, settings)
-            if not is_significant(best, n_tests, settings, min_effect):
+                best = prefer_simpler(named, pool, remaining, rules)
+            if not rules.significant(best):
                 break
             selected.append(best)
             remaining, conditional = refit()
 
     forward()
     by_name = {c.name: c for c in candidates}
-    if _refine(selected, by_name, y, settings, min_effect, acceptable):
+    if _refine(selected, by_name, y, rules):
         # the causes after the first were chosen given a first cause that has changed: choose them again
         del selected[1:]
         remaining, conditional = refit()
         forward()
-        _refine(selected, by_name, y, settings, min_effect, acceptable)
+        _refine(selected, by_name, y, rules)
         remaining, conditional = refit()
         named = {fit.candidate.name for fit in selected}
         proxies = {key: value for key, value in proxies.items() if value[0] in named}
 
-    aliases, explained_by = _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect)
-    table = _table(
-        marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings, min_effect
-    )
+    aliases, explained_by = _confounding(selected, marginal, y, rules)
+    table = _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, rules)
     return Diagnosis(
         offset,
         offset_se,
         len(y),
         float(y.std()),
         surrogate_std,
-        min_effect,
+        rules.min_effect,
         table,
         y,
         {c.name: c for c in candidates},
@@ -606,9 +610,7 @@ def joint_share(fits: list[Fit], y, settings: Settings) -> float:
     return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
 
 
-def _refine(
-    selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float, acceptable
-) -> bool:
+def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, rules: Rules) -> bool:
     """Choose each chosen cause's form again given all the others; returns whether anything changed.
 
     Chosen one at a time, a cause is fitted with the causes after it still in the
@@ -620,15 +622,13 @@ def _refine(
     """
     changed = False
     for _ in range(REFINE_PASSES):
-        if not _refine_pass(selected, by_name, y, settings, min_effect, acceptable):
+        if not _refine_pass(selected, by_name, y, rules):
             break
         changed = True
     return changed
 
 
-def _refine_pass(
-    selected: list[Fit], by_name: dict[str, Candidate], y, settings: Settings, min_effect: float, acceptable
-) -> bool:
+def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, rules: Rules) -> bool:
     changed = False
     for j, fit in enumerate(list(selected)):
         # the partial residual of cause j: y less the other causes' terms of the joint fit
@@ -638,27 +638,22 @@ def _refine_pass(
         )
         rest = rest - rest.mean()
         if fit.candidate.kind != "interaction":
-            again = best_fit(fit.candidate, rest, settings, min_effect)
+            again = rules.best_fit(fit.candidate, rest)
             if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
                 chosen = {s.candidate.name for s in selected}
-                pool = [again] + [
-                    best_fit(c, rest, settings, min_effect)
-                    for c in by_name.values()
-                    if c.kind in ("input", "log") and c.name not in chosen
-                ]
-                again = prefer_simpler(again, pool, min_effect, acceptable, rest, settings)
-            if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and acceptable(again):
+                logged = [c for c in by_name.values() if c.kind in ("input", "log") and c.name not in chosen]
+                again = prefer_simpler(again, [again] + [rules.best_fit(c, rest) for c in logged], rest, rules)
+            changed_form = (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name)
+            if changed_form and rules.significant(again):
                 selected[j] = again
                 changed = True
             continue
-        current = joint_share(selected, y, settings)
-        singles = [
-            best_fit(by_name[column], rest, settings, min_effect)
-            for column in fit.candidate.columns
-            if column in by_name
+        current = joint_share(selected, y, rules.settings)
+        singles = [rules.best_fit(by_name[column], rest) for column in fit.candidate.columns if column in by_name]
+        singles = [single for single in singles if rules.significant(single)]
+        scored = [
+            (joint_share(selected[:j] + [single] + selected[j + 1 :], y, rules.settings), single) for single in singles
         ]
-        singles = [single for single in singles if acceptable(single)]
-        scored = [(joint_share(selected[:j] + [single] + selected[j + 1 :], y, settings), single) for single in singles]
         scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
         if scored:
             selected[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
@@ -666,7 +661,7 @@ def _refine_pass(
     return changed
 
 
-def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effect):
+def _confounding(selected: list[Fit], marginal: dict[str, Fit], y, rules: Rules):
     """For each chosen cause A and each strong marginal rival B: does B explain anything once A is in,
     and vice versa?"""
     aliases: dict[str, list[str]] = {}
@@ -688,10 +683,8 @@ def _confounding(selected, marginal, candidates, y, settings, n_tests, min_effec
         ]
         for rival in sorted(rivals, key=lambda f: -f.explained_share)[:MAX_RIVALS]:
             b = rival.candidate
-            b_after_a = best_fit(b, _without(a, cause.form.name, y), settings, min_effect)
-            a_after_b = best_fit(a, _without(b, rival.form.name, y), settings, min_effect)
-            b_adds = is_significant(b_after_a, n_tests, settings, min_effect)
-            a_adds = is_significant(a_after_b, n_tests, settings, min_effect)
+            b_adds = rules.significant(rules.best_fit(b, _without(a, cause.form.name, y)))
+            a_adds = rules.significant(rules.best_fit(a, _without(b, rival.form.name, y)))
             if not a_adds and not b_adds:
                 aliases[a.name].append(b.name)
             elif a_adds and not b_adds:
@@ -705,9 +698,7 @@ def _without(candidate: Candidate, form_name: str, y):
     return remaining - remaining.mean()
 
 
-def _table(
-    marginal, conditional, selected, aliases, explained_by, proxies, skipped, n_tests, settings, min_effect
-) -> pd.DataFrame:
+def _table(marginal, conditional, selected, aliases, explained_by, proxies, skipped, rules: Rules) -> pd.DataFrame:
     chosen = [s.candidate.name for s in selected]
     rows = []
     for name, fit in marginal.items():
@@ -722,11 +713,7 @@ def _table(
             effect_range, effect_std = final.effect_range, final.effect_std
         else:
             after = conditional.get(name, fit)
-            significant = (
-                bool(is_significant(after, n_tests, settings, min_effect))
-                if selected
-                else bool(is_significant(fit, n_tests, settings, min_effect))
-            )
+            significant = bool(rules.significant(after if selected else fit))
             conditional_share = after.explained_share
             p_value = after.p_value
             form = fit.form

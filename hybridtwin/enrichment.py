@@ -122,7 +122,7 @@ def propose(
         current_doe = np.vstack([current_doe, candidates[pick]])
         gate = KNNSupportGate(k=k, percentile=percentile).fit(current_doe)  # as the workflow would rebuild it
         distance = gate.distance(production)
-        now_inside, now_held = distance <= gate.threshold_, distance <= threshold
+        now_inside, now_held = gate.within(distance), distance <= threshold
         points.append(candidates[pick])
         brought.append(np.flatnonzero(now_inside & ~inside))
         shares.append(float(now_inside.mean()))

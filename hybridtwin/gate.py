@@ -113,7 +113,11 @@ class KNNSupportGate(BaseEstimator):
         return distances.mean(axis=1)
 
     def predict(self, X) -> np.ndarray:
-        return self.distance(X) <= self.threshold_
+        return self.within(self.distance(X))
+
+    def within(self, distance) -> np.ndarray:
+        """The gate's rule: in support where the kNN distance is at most the threshold."""
+        return np.asarray(distance) <= self.threshold_
 
     def to_dict(self) -> dict:
         return {

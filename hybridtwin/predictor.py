@@ -216,7 +216,7 @@ class Predictor:
             raise data.InputError(f"interval level {level} must lie between 0 and 1 (for example 0.9)")
         X = self._inputs(frame)
         distance = self.gate.distance(X)
-        in_support = distance <= self.gate.threshold_
+        in_support = self.gate.within(distance)
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)

@@ -297,6 +297,16 @@ def trials_table(study: optuna.Study) -> pd.DataFrame:
     )
 
 
+def approximate_residuals(surrogate, production: pd.DataFrame, inputs, target: str) -> pd.DataFrame:
+    """The paper's approximate residuals r = y_measured - y_FEM_hat(x) of production rows, with the surrogate's
+    prediction and its predictive std (the simulator was not run at these inputs: the surrogate stands in)."""
+    mean, std = surrogate.predict(production[list(inputs)], return_std=True)
+    measured = production[target].to_numpy(float)
+    return pd.DataFrame(
+        {"measured": measured, "pred_surrogate": mean, "pred_surrogate_std": std, "residual_approx": measured - mean}
+    )
+
+
 def evaluation_seed(seed: int) -> int:
     """Seed of the CV split that scores the tuned model: not the split the tuning chose on."""
     return seed + 1

@@ -4,7 +4,7 @@ import pandas as pd
 
 from hybridtwin import extension, files, residual
 from hybridtwin.causes import Term
-from hybridtwin.crossval import folds
+from hybridtwin.crossval import splits_of
 from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
 
@@ -19,8 +19,8 @@ def main(snakemake):
     def make_xgb():
         return residual.make_model(params, p.seed, snakemake.threads)
 
-    # the same folds as the hybrid's out-of-fold predictions (rule residual_cv)
-    splits = folds(int(residuals["in_support"].sum()), p.folds, residual.evaluation_seed(p.seed))
+    # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
+    splits = splits_of(read_checked(snakemake.input.hybrid_folds)["fold"])
     result = extension.evaluate(
         read_checked(snakemake.input.production),
         residuals,

@@ -7,7 +7,7 @@ training=unfiltered: every production row (Table 5's comparison).
 import pandas as pd
 
 from hybridtwin import files, residual
-from hybridtwin.crossval import cross_validate, cv_table
+from hybridtwin.crossval import cross_validate, cv_table, fold_ids
 from hybridtwin.files import read_checked
 from hybridtwin.runner import run
 
@@ -21,9 +21,12 @@ def main(snakemake):
     params = files.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
     # a fold split other than the tuning's, so the score is not the winning trial's own
-    per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, residual.evaluation_seed(snakemake.params.seed))
+    seed = residual.evaluation_seed(snakemake.params.seed)
+    per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, seed)
     files.write_csv(per_fold, snakemake.output.folds)
-    files.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof}), snakemake.output.oof)
+    # each row's fold, so that the extension is scored on the same split (rule model_extension)
+    fold = fold_ids(len(y), snakemake.params.folds, seed)
+    files.write_csv(pd.DataFrame({"row": rows, "pred_residual_oof": oof, "fold": fold}), snakemake.output.oof)
     files.write_csv(
         cv_table(
             per_fold,

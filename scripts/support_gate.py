@@ -15,7 +15,7 @@ def main(snakemake):
         doe[inputs]
     )
     distance = gate.distance(production[inputs])
-    support = pd.DataFrame({"knn_distance": distance, "in_support": gate.predict(production[inputs])})
+    support = pd.DataFrame({"knn_distance": distance, "in_support": gate.within(distance)})
     data.check_support(
         support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths, gate.threshold_
     )

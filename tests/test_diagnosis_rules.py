@@ -12,6 +12,13 @@ from hybridtwin.profiles import Identity
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
 
+class Lenient(diagnosis.Rules):
+    """Rules under which every fit counts as significant: the rule under test decides alone."""
+
+    def significant(self, fit) -> bool:
+        return True
+
+
 def _diagnose(frame, y, surrogate_std=0.2, inputs=()):
     return diagnosis.diagnose(frame, y, list(inputs), [], SETTINGS, surrogate_std=surrogate_std)
 
@@ -147,7 +154,7 @@ def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
         ]
     }
     # the pair as the best-scoring candidate: the single column is simpler and predicts the same
-    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), 2.0, lambda fit: True, y, SETTINGS)
+    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), y, Lenient(SETTINGS, min_effect=2.0))
     assert chosen.candidate.name == "temp"
     assert chosen.form.name == fits["temp"].form.name == "sigmoid"
 
@@ -167,7 +174,7 @@ def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(dr
         for name, kind, values in [("time", "time", hours), ("strokes", "log", strokes)]
     ]
     best = min(fits, key=lambda fit: fit.score)
-    chosen = diagnosis.prefer_simpler(best, fits, 1.0, lambda fit: True, y, SETTINGS)
+    chosen = diagnosis.prefer_simpler(best, fits, y, Lenient(SETTINGS, min_effect=1.0))
     assert chosen.candidate.name == expected
 
 
@@ -210,7 +217,7 @@ def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     models, means = forms.backfit([temp], ["quadratic"], y)
     left = y - models[0].predict(temp) + means[0]
     selected = [quadratic, best_fit(by_name["strokes"], left - left.mean(), SETTINGS, 0.5)]
-    assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
+    assert diagnosis._refine(selected, by_name, y, Lenient(SETTINGS, min_effect=0.5))
     assert [(fit.candidate.name, fit.form.name) for fit in selected][0] == ("temp", "sigmoid")
 
 
@@ -226,9 +233,9 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
         "other": Candidate.new("other", "input", other, ("other",)),
     }
     selected = [best_fit(pair, y, SETTINGS)]
-    assert diagnosis._refine(selected, by_name, y, SETTINGS, 0.5, lambda fit: True)
+    assert diagnosis._refine(selected, by_name, y, Lenient(SETTINGS, min_effect=0.5))
     assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"
     # a real interaction stays
     y2 = 0.2 * (temp - 35) * (other - 0.5) + rng.normal(0, 0.3, n)
     selected = [best_fit(pair, y2 - y2.mean(), SETTINGS)]
-    assert not diagnosis._refine(selected, by_name, y2 - y2.mean(), SETTINGS, 0.5, lambda fit: True)
+    assert not diagnosis._refine(selected, by_name, y2 - y2.mean(), Lenient(SETTINGS, min_effect=0.5))

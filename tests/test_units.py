@@ -14,7 +14,7 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from hybridtwin import hybrid, residual, tables
-from hybridtwin.crossval import cross_validate, folds
+from hybridtwin.crossval import cross_validate, fold_ids, folds, splits_of
 from hybridtwin.gate import DoEStandardizer, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
 from hybridtwin.surrogate import GPRSurrogate
@@ -189,6 +189,28 @@ def test_folds_partition_rows():
         assert not set(train) & set(test)
         np.testing.assert_array_equal(np.sort(np.concatenate([train, test])), np.arange(23))
         assert len(test) in (4, 5)
+
+
+def test_written_fold_ids_give_back_the_very_split():
+    # rule residual_cv writes each row's fold; rule model_extension scores the extension on the split they give
+    split = folds(23, 5, seed=7)
+    ids = fold_ids(23, 5, seed=7)
+    assert sorted(set(ids)) == [1, 2, 3, 4, 5]
+    for (train, test), (train_again, test_again) in zip(split, splits_of(ids), strict=True):
+        np.testing.assert_array_equal(train, train_again)
+        np.testing.assert_array_equal(test, test_again)
+
+
+def test_approximate_residuals_are_measured_less_the_surrogate():
+    class Surrogate:
+        def predict(self, X, return_std=False):
+            return X["a"].to_numpy(float) * 2.0, np.full(len(X), 0.5)
+
+    production = pd.DataFrame({"b": [9.0, 9.0], "a": [1.0, 3.0], "y": [5.0, 4.0]})
+    frame = residual.approximate_residuals(Surrogate(), production, ["a"], "y")
+    np.testing.assert_allclose(frame["residual_approx"], [3.0, -2.0])
+    np.testing.assert_allclose(frame["pred_surrogate_std"], [0.5, 0.5])
+    assert list(frame.columns) == ["measured", "pred_surrogate", "pred_surrogate_std", "residual_approx"]
 
 
 def test_folds_seeded():

@@ -303,8 +303,8 @@ def evaluate(
     inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
     inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
     surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
-    mean, std = surrogate.predict(production[inputs], return_std=True)
-    r = production[target].to_numpy(float) - mean
+    approximate = residual.approximate_residuals(surrogate, production, inputs, target)
+    mean, std, r = (approximate[c].to_numpy(float) for c in ("pred_surrogate", "pred_surrogate_std", "residual_approx"))
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
     start = time.perf_counter()
     result = diagnosis.diagnose(
@@ -406,18 +406,19 @@ def compare_models(
     the truth-RMSE out of and in the support on those rows.
     """
     from .. import intervals, peers
-    from ..crossval import cross_validate
-    from ..crossval import folds as fold_splits
+    from ..crossval import cross_validate, fold_ids, splits_of
     from ..extension import cross_validated
 
     inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
     gate = KNNSupportGate().fit(doe[inputs])
     distance = gate.distance(production[inputs])
-    inside = distance <= gate.threshold_
+    inside = gate.within(distance)
     surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
-    mean, std = surrogate.predict(production[inputs], return_std=True)
-    measured = production[target].to_numpy(float)
-    r = measured - mean
+    residuals = residual.approximate_residuals(surrogate, production, inputs, target)
+    residuals["in_support"] = inside
+    measured, mean, std, r = (
+        residuals[c].to_numpy(float) for c in ("measured", "pred_surrogate", "pred_surrogate_std", "residual_approx")
+    )
     settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
     result = diagnosis.diagnose(
         production.loc[inside].drop(columns=[target]),
@@ -434,9 +435,11 @@ def compare_models(
         return residual.make_model(SCENARIO_XGB, seed, n_jobs)
 
     causes = result.terms
-    splits = fold_splits(len(rows), folds, seed + 1)
+    # the workflow's split: rule residual_cv scores the hybrid on it, and rule model_extension reads it
+    cv_seed = residual.evaluation_seed(seed)
+    splits = splits_of(fold_ids(len(rows), folds, cv_seed))
     hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
-    _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, seed + 1)
+    _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, cv_seed)
     models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
     extended = mean + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
@@ -457,7 +460,6 @@ def compare_models(
     frame.loc[rows, "pred_hybrid_oof"] = mean[rows] + hybrid_oof
     frame.loc[rows, "pred_extended_oof"] = mean[rows] + oof_extended
     frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
-    residuals = pd.DataFrame({"measured": measured, "pred_surrogate": mean, "residual_approx": r, "in_support": inside})
     peer_settings = peer_settings or {"gp_n_hyper": 500, "gp_n_fit": 2000, "cokriging_n_high": 500}
     for kind in peers.PEERS:
         fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed)

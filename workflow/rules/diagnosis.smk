@@ -44,6 +44,7 @@ rule model_extension:
         matched=CHECKED["matched"],
         matched_cases=rules.matched_check.output.cases,
         hybrid=rules.predict_production.output.predictions,
+        hybrid_folds=f"{RESULTS}/residuals/oof_filtered.csv",
         summary=rules.diagnose.output.summary,
         best=rules.tune_residual.output.best,
     output:
@@ -62,7 +63,6 @@ rule model_extension:
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
-        folds=FOLDS,
         seed=SEED,
         matched_measured=config["columns"]["matched_measured"],
     script:
