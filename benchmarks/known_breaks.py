@@ -35,8 +35,8 @@ BREAKS = [
     ),
     (
         "hybridtwin/report.py",
-        'direction = "more" if offset > 0 else "less"',
-        'direction = "less" if offset > 0 else "more"',
+        'direction = "higher" if offset > 0 else "lower"',
+        'direction = "lower" if offset > 0 else "higher"',
     ),
     (
         "hybridtwin/tables.py",

@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hybridtwin", description=__doc__.split("\n\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
     predict = commands.add_parser(
-        "predict", help="predict draw-in for new settings, with an interval and the in/out-of-domain verdict"
+        "predict", help="predict the target for new settings, with an interval and the in/out-of-domain verdict"
     )
     predict.add_argument("csv", nargs="?", help="CSV of settings, one row each (the run's input column names)")
     predict.add_argument(

@@ -112,12 +112,13 @@ class Settings:
     exclude: tuple[str, ...] = ()
     n_blocks: int = 200
     n_jobs: int = 1
+    unit: str = "mm"  # of the target: the causes' descriptions give effects in it (config units.target)
 
     @classmethod
-    def from_config(cls, config: dict | None, folds: int, seed: int, n_jobs: int = 1) -> "Settings":
+    def from_config(cls, config: dict | None, folds: int, seed: int, unit: str, n_jobs: int = 1) -> "Settings":
         config = dict(config or {})
         config["exclude"] = tuple(config.get("exclude", ()))
-        return cls(folds=folds, seed=seed, n_jobs=n_jobs, **config)
+        return cls(folds=folds, seed=seed, unit=unit, n_jobs=n_jobs, **config)
 
 
 @dataclass
@@ -747,7 +748,7 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
                 "p_value": p_value,
                 "significant": significant,
                 "selected": name in chosen,
-                "description": form.describe(name),
+                "description": form.describe(name, rules.settings.unit),
                 "note": note,
             }
         )
@@ -765,6 +766,7 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
 
 def summary_dict(result: Diagnosis) -> dict:
     """What the later steps and the report need: offset, chosen causes (JSON-safe), confounding."""
+    descriptions = result.table.set_index("cause")["description"]  # in the target's unit
     return {
         "offset": result.offset,
         "offset_se": result.offset_se,
@@ -780,7 +782,7 @@ def summary_dict(result: Diagnosis) -> dict:
                 "form": f.form.name,
                 "origin": f.candidate.origin,
                 "family": forms.FAMILIES[f.form.name],
-                "description": f.form.describe(f.candidate.name),
+                "description": descriptions[f.candidate.name],
                 "parameters": f.form.to_dict(),
                 "explained_share": f.explained_share,
                 "effect_range": f.effect_range,

@@ -217,7 +217,7 @@ def gain_table(
     table["n_out_of_support"] = int((~inside).sum())
     table["n_matched"] = len(matched_measured)
     table["evaluated_on"] = (
-        "measured production draw-in: in support out-of-fold (K-fold CV; the causes and forms "
+        "measured production values: in support out-of-fold (K-fold CV; the causes and forms "
         "were chosen on all in-support rows, only their parameters refitted per fold), out of "
         "support with models fitted on all in-support rows (never on these rows); matched "
         "cases (never used for fitting)" + ("; truth = the demo's noise-free plant" if truth is not None else "")

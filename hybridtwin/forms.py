@@ -52,7 +52,7 @@ class Form:
     def to_dict(self) -> dict:
         return {"form": self.name, **{k: json_safe(v) for k, v in vars(self).items()}}
 
-    def describe(self, column: str, unit: str = "mm") -> str:
+    def describe(self, column: str, unit: str) -> str:
         raise NotImplementedError
 
 
@@ -66,7 +66,7 @@ class Linear(Form):
     def _predict(self, x):
         return self.intercept + self.slope * np.asarray(x, float)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         return f"linear: {self.slope:+.4g} {unit} per unit of {column}"
 
 
@@ -86,7 +86,7 @@ class Quadratic(Form):
         clipped = np.clip(np.asarray(x, float), self.low, self.high)
         return np.polyval(self.coefficients, clipped - self.center)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         a, b, _ = self.coefficients
         return f"quadratic in {column}, vertex at {self.center - b / (2 * a):.4g}" if a else "quadratic"
 
@@ -140,7 +140,7 @@ class Sigmoid(Form):
     def _predict(self, x):
         return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         return (
             f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
             f"(10-90% over {SIGMOID_SPAN * self.width:.3g})"
@@ -174,7 +174,7 @@ class Step(Form):
     def _predict(self, x):
         return self.low + self.jump * (np.asarray(x, float) >= self.threshold)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         return f"step of {self.jump:+.3g} {unit} at {column} = {self.threshold:.4g}"
 
 
@@ -199,7 +199,7 @@ class Monotone(Form):
     def _predict(self, x):
         return np.interp(np.asarray(x, float), self.knots_x, self.knots_y)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         change = self.knots_y[-1] - self.knots_y[0]
         return f"monotone trend of {change:+.3g} {unit} over {column} {self.knots_x[0]:.4g}..{self.knots_x[-1]:.4g}"
 
@@ -228,7 +228,7 @@ class Group(Form):
         values = np.array([self.offsets.get(level, self.overall) for level in levels.tolist()], float)
         return values[codes] if len(levels) else np.empty(0)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         values = np.array(list(self.offsets.values()))
         return f"offsets per {column} level: {len(values)} levels, sd {values.std():.3g} {unit}"
 
@@ -252,7 +252,7 @@ class Product(Form):
         a, b = np.asarray(x, float).T
         return self._design(a, b) @ np.asarray(self.coefficients, float)
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
 
 
@@ -267,7 +267,7 @@ class Additive(Product):
     def _design(self, a, b):
         return super()._design(a, b)[:, :3]
 
-    def describe(self, column, unit="mm"):
+    def describe(self, column, unit):
         first, second = column.split("*")
         return (
             f"additive: {self.coefficients[1]:+.4g} {unit} per unit of {first}, "

@@ -44,7 +44,7 @@ def support_distances(doe_distances, production_distances, threshold, percentile
     return figure
 
 
-def parity(reference, prediction, label: str, unit: str = "mm", title: str = ""):
+def parity(reference, prediction, label: str, unit: str, title: str = ""):
     """Predicted against reference with the 1:1 line."""
     figure, axis = plt.subplots(figsize=(4.5, 4.5))
     axis.scatter(reference, prediction, s=14, color="C0", alpha=0.8)
@@ -62,7 +62,7 @@ def _one_to_one(axis, *arrays):
     axis.set_ylim(low - pad, high + pad)
 
 
-def residual_check(production_target, production_pred, matched_target, matched_pred, matched_scores: dict):
+def residual_check(production_target, production_pred, matched_target, matched_pred, matched_scores: dict, unit: str):
     """Figure 2: predicted residual against its target, production cloud and matched cases."""
     figure, axis = plt.subplots(figsize=(5.5, 5))
     axis.scatter(
@@ -83,20 +83,20 @@ def residual_check(production_target, production_pred, matched_target, matched_p
         zorder=3,
         label=(
             f"matched cases, true residual (n={len(matched_target)}): R²={matched_scores['r2']:.2f}, "
-            f"RMSE={matched_scores['rmse']:.2f} mm"
+            f"RMSE={matched_scores['rmse']:.2f} {unit}"
         ),
     )
     _one_to_one(axis, production_target, production_pred, matched_target, matched_pred)
     axis.set(
-        xlabel="residual target: r_approx (production) / true residual (matched) [mm]",
-        ylabel="predicted residual r_hat [mm]",
+        xlabel=f"residual target: r_approx (production) / true residual (matched) [{unit}]",
+        ylabel=f"predicted residual r_hat [{unit}]",
         title="Residual model: production and matched cases",
     )
     axis.legend(loc="upper left", fontsize=7)
     return figure
 
 
-def error_distributions(groups: dict[str, dict[str, np.ndarray]]):
+def error_distributions(groups: dict[str, dict[str, np.ndarray]], unit: str):
     """Figure 3: error histograms, surrogate against hybrid, one panel per data set."""
     figure, axes = plt.subplots(1, len(groups), figsize=(5 * len(groups), 3.8), squeeze=False)
     for axis, (title, errors) in zip(axes[0], groups.items()):
@@ -111,10 +111,10 @@ def error_distributions(groups: dict[str, dict[str, np.ndarray]]):
                 alpha=0.55,
                 color=f"C{index}",
                 density=True,
-                label=f"{name}: μ={error.mean():.2f}, σ={std:.2f} mm",
+                label=f"{name}: μ={error.mean():.2f}, σ={std:.2f} {unit}",
             )
         axis.axvline(0, color="k", lw=0.8)
-        axis.set(xlabel="error = measured − predicted [mm]", ylabel="density", title=title)
+        axis.set(xlabel=f"error = measured − predicted [{unit}]", ylabel="density", title=title)
         axis.legend(fontsize=7)
     figure.tight_layout()
     return figure
@@ -161,7 +161,7 @@ def cause_profile(profile: dict, rank: int, significant: bool):
         )
         axis.set_xlabel(profile["xlabel"])
     axis.axhline(0, color="k", lw=0.6)
-    axis.set_ylabel("offset-free residual [mm]")
+    axis.set_ylabel(f"offset-free residual [{profile['unit']}]")
     axis.set_title(f"Cause {rank}: {profile['name']} ({status})\n{profile['description']}", fontsize=8)
     axis.legend(fontsize=7)
     return figure
@@ -183,7 +183,7 @@ def prediction_intervals(
     coverage: dict[str, float],
     threshold: float,
     level: float,
-    unit: str = "mm",
+    unit: str,
 ):
     """Errors of the recommended prediction against the distance to the DoE, with each region's interval."""
     figure, axis = plt.subplots(figsize=(7, 4))

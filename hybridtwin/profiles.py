@@ -19,7 +19,7 @@ def partial_residual(result: Diagnosis, y: np.ndarray, index: int) -> np.ndarray
     return y - sum((f.form.predict(f.candidate.values) for f in others), np.zeros_like(y))
 
 
-def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20, n_boot: int = 30) -> dict:
+def cause_profile(result: Diagnosis, name: str, unit: str, seed: int = 0, n_bins: int = 20, n_boot: int = 30) -> dict:
     """Data for a cause's figure: binned residual, the fitted form on a grid and a bootstrap 95% band.
 
     A chosen cause is shown against its partial residual (the other chosen terms
@@ -38,8 +38,9 @@ def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20,
         "name": name,
         "kind": candidate.kind,
         "form": form.name,
-        "description": form.describe(name),
+        "description": form.describe(name, unit),
         "selected": name in chosen,
+        "unit": unit,
     }
     if candidate.kind == "group":
         frame = pd.DataFrame({"level": candidate.values, "y": y})
@@ -76,7 +77,7 @@ def cause_profile(result: Diagnosis, name: str, seed: int = 0, n_bins: int = 20,
         curve=curve,
         band_low=low,
         band_high=high,
-        xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [mm]",
+        xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [{unit}]",
     )
     if candidate.kind == "time":
         profile["xlabel"] = f"{name}: hours since {candidate.origin}"

@@ -58,11 +58,11 @@ def diagnosis_markdown(
         "the surrogate's error rather than the plant's.",
         "",
     ]
-    direction = "more" if offset > 0 else "less"
+    direction = "higher" if offset > 0 else "lower"
     lines += [
         "## Offset",
         "",
-        f"On average the plant draws in **{abs(offset):.2f} {unit} {direction}** than simulated "
+        f"On average the measured {code(target)} is **{abs(offset):.2f} {unit} {direction}** than simulated "
         f"(± {2 * summary['offset_se']:.2f} {unit}, 2 standard errors over blocks of consecutive parts).",
         "",
     ]
@@ -88,7 +88,7 @@ def diagnosis_markdown(
             f"{rank}. **{code(cause['name'])}**, form *{cause['form']}* ({cause['family']}): "
             f"{text(cause['description'])}. "
             f"It explains {row['explained_share']:.1%} of the offset-free residual variance on its own "
-            f"(held-out), changes the draw-in by {cause['effect_range']:.2f} {unit} peak to peak over the "
+            f"(held-out), changes {code(target)} by {cause['effect_range']:.2f} {unit} peak to peak over the "
             f"data, p = {cause['p_value']:.2g}. Figure: `results/figures/cause_{rank}.png`."
         ]
     if selected:

@@ -79,7 +79,7 @@ def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
         rows.append(row)
     table = pd.DataFrame(rows)
     table["evaluated_on"] = (
-        "measured production draw-in; residual models scored out-of-fold on their own "
+        "measured production values; residual models scored out-of-fold on their own "
         "training rows (a split other than the tuning's), the final filtered model on "
         "out-of-support rows; both residual models use the hyperparameters tuned on "
         "in-support rows"

@@ -16,7 +16,9 @@ def main(snakemake):
     surrogate_std = surrogate_latent_std(
         residuals.loc[inside, "pred_surrogate_std"], files.read_json(snakemake.input.surrogate)["noise_std"]
     )
-    settings = diagnosis.Settings.from_config(p.settings, folds=p.folds, seed=p.seed, n_jobs=snakemake.threads)
+    settings = diagnosis.Settings.from_config(
+        p.settings, folds=p.folds, seed=p.seed, unit=p.unit, n_jobs=snakemake.threads
+    )
     result = diagnosis.diagnose(
         production.loc[inside].drop(columns=[p.target]),
         residuals.loc[inside, "residual_approx"],
@@ -34,7 +36,7 @@ def main(snakemake):
             files.save_figure(plots.placeholder(f"only {len(result.table)} candidate cause(s)"), path)
             continue
         row = result.table.iloc[rank - 1]
-        profile = profiles.cause_profile(result, row["cause"], seed=p.seed)
+        profile = profiles.cause_profile(result, row["cause"], p.unit, seed=p.seed)
         files.save_figure(plots.cause_profile(profile, rank, bool(row["significant"])), path)
 
 

@@ -16,7 +16,7 @@ def main(snakemake):
         },
         f"matched cases (n={len(cases)})": {"surrogate": cases["error_surrogate"], "hybrid": cases["error_hybrid"]},
     }
-    files.save_figure(plots.error_distributions(groups), snakemake.output.figure)
+    files.save_figure(plots.error_distributions(groups, snakemake.params.unit), snakemake.output.figure)
 
 
 run(snakemake, main)

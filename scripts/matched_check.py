@@ -34,6 +34,7 @@ def main(snakemake):
             cases["true_residual"],
             cases["pred_residual"],
             {"r2": residual_row["r2"], "rmse": residual_row["rmse"]},
+            p.unit,
         ),
         snakemake.output.figure,
     )

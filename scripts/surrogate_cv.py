@@ -22,7 +22,14 @@ def main(snakemake):
     files.write_csv(table, snakemake.output.table)
     files.write_csv(per_fold, snakemake.output.folds)
     files.save_figure(
-        plots.parity(y, oof, "simulated draw-in (DoE)", title="GPR surrogate, out-of-fold"), snakemake.output.figure
+        plots.parity(
+            y,
+            oof,
+            f"simulated {snakemake.params.target} (DoE)",
+            snakemake.params.unit,
+            title="GPR surrogate, out-of-fold",
+        ),
+        snakemake.output.figure,
     )
 
 

@@ -89,6 +89,19 @@ def test_elapsed_time_ranks_behind_a_logged_quantity_that_predicts_the_same():
     assert "a_time" in result.aliases["strokes"]
 
 
+def test_the_causes_are_described_in_the_targets_unit():
+    # a plant that measures springback in degrees reads degrees, in the table and in the summary
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(80, 100, 2000)
+    y = 0.3 * (angle - angle.mean()) + rng.normal(0, 0.5, 2000)
+    result = diagnosis.diagnose(
+        pd.DataFrame({"angle": angle}), y, ["angle"], [], Settings(folds=5, seed=0, unit="deg"), surrogate_std=0.2
+    )
+    described = "linear: +0.3026 deg per unit of angle"
+    assert result.table.loc[0, "description"] == described
+    assert diagnosis.summary_dict(result)["selected"][0]["description"] == described
+
+
 def _coil_plant(explained: float, seed: int = 1):
     """Coils of 60 parts; a per-coil lubricant film with an effect, and coil offsets nothing logged explains."""
     rng = np.random.default_rng(seed)

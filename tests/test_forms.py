@@ -16,7 +16,7 @@ def test_linear_fits_exact_data():
     assert form.slope == pytest.approx(0.5) and form.intercept == pytest.approx(2.0)
     assert form.n_params == 1
     assert form.predict([20.0]) == pytest.approx([12.0])  # no trusted range set: extrapolates
-    assert form.describe("die_temp_c") == "linear: +0.5 mm per unit of die_temp_c"
+    assert form.describe("die_temp_c", "mm") == "linear: +0.5 mm per unit of die_temp_c"
     assert form.describe("die_temp_c", unit="deg") == "linear: +0.5 deg per unit of die_temp_c"
 
 
@@ -25,7 +25,7 @@ def test_quadratic_fits_exact_data_and_holds_its_ends():
     assert form.n_params == 2
     np.testing.assert_allclose(form.predict(X), (X - 4.0) ** 2, atol=1e-9)
     assert form.predict([12.0]) == pytest.approx([36.0])  # held at x = 10: curvature is not extrapolated
-    assert form.describe("t") == "quadratic in t, vertex at 4"
+    assert form.describe("t", "mm") == "quadratic in t, vertex at 4"
 
 
 def test_sigmoid_recovers_threshold_width_and_amplitude():
@@ -34,7 +34,7 @@ def test_sigmoid_recovers_threshold_width_and_amplitude():
     assert form.n_params == 3
     assert (form.amplitude, form.threshold, form.width) == pytest.approx((-6.0, 5.0, 0.8), abs=1e-3)
     assert form.intercept == pytest.approx(1.0, abs=1e-3)
-    assert form.describe("T") == "saturating change of -6 mm around T = 5 (10-90% over 3.51)"
+    assert form.describe("T", "mm") == "saturating change of -6 mm around T = 5 (10-90% over 3.51)"
 
 
 def test_step_at_threshold_includes_the_threshold():
@@ -45,7 +45,7 @@ def test_step_at_threshold_includes_the_threshold():
     assert 4.9 < form.threshold <= 5.0
     # a part exactly at the threshold is above it
     assert form.predict([form.threshold, np.nextafter(form.threshold, -np.inf)]) == pytest.approx([4.0, 1.0])
-    assert form.describe("shim") == f"step of +3 mm at shim = {form.threshold:.4g}"
+    assert form.describe("shim", "mm") == f"step of +3 mm at shim = {form.threshold:.4g}"
 
 
 def test_step_with_no_valid_split_is_flat():
@@ -58,7 +58,7 @@ def test_monotone_picks_the_direction_that_fits_and_counts_its_jumps():
     form = forms.Monotone().fit(X, y)
     np.testing.assert_allclose(form.predict(X), y)
     assert form.n_params == 5  # two jumps (place and height each) and the direction
-    assert form.describe("strokes").startswith("monotone trend of -5 mm over strokes 0..10")
+    assert form.describe("strokes", "mm").startswith("monotone trend of -5 mm over strokes 0..10")
 
 
 def test_monotone_is_silent_on_flat_data():
@@ -75,7 +75,7 @@ def test_group_offsets_and_unseen_levels_get_the_mean():
     assert form.n_params == 2
     assert form.overall == pytest.approx(26.0 / 6)
     np.testing.assert_allclose(form.predict(np.array(["c", "zz", "a"])), [10.0, 26.0 / 6, 2.0])
-    assert form.describe("coil_id") == "offsets per coil_id level: 3 levels, sd 3.4 mm"
+    assert form.describe("coil_id", "mm") == "offsets per coil_id level: 3 levels, sd 3.4 mm"
 
 
 def test_product_and_additive_fit_exact_data():
@@ -87,11 +87,11 @@ def test_product_and_additive_fit_exact_data():
     np.testing.assert_allclose(product.predict(ab), y, atol=1e-9)
     assert product.coefficients[3] == pytest.approx(3.0)
     assert product.n_params == 3
-    assert product.describe("a*b") == "interaction: +3 mm per unit of (a x b)"
+    assert product.describe("a*b", "mm") == "interaction: +3 mm per unit of (a x b)"
     additive = forms.Additive().fit(ab, 1.0 + 2.0 * a - 1.0 * b)
     assert additive.n_params == 2
     assert additive.coefficients[1:] == pytest.approx([2.0, -1.0])
-    assert additive.describe("a*b") == "additive: +2 mm per unit of a, -1 mm per unit of b"
+    assert additive.describe("a*b", "mm") == "additive: +2 mm per unit of a, -1 mm per unit of b"
 
 
 @pytest.mark.parametrize(

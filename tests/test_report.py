@@ -54,10 +54,10 @@ def _summary(offset, selected=True):
     }
 
 
-@pytest.mark.parametrize("offset, words", [(-3.25, "**3.25 mm less**"), (7.5, "**7.50 mm more**")])
+@pytest.mark.parametrize("offset, words", [(-3.25, "**3.25 mm lower**"), (7.5, "**7.50 mm higher**")])
 def test_offset_sign_and_size(offset, words):
     text = diagnosis_markdown(CAUSES, _summary(offset), GAIN, "draw-in", "mm")
-    assert f"the plant draws in {words} than simulated" in text
+    assert f"the measured `draw-in` is {words} than simulated" in text
 
 
 def test_names_the_cause_the_table_ranks_first_and_the_id_it_stands_for():

@@ -32,6 +32,7 @@ rule diagnose:
         folds=FOLDS,
         seed=SEED,
         settings={k: v for k, v in config["diagnosis"].items() if k != "n_figures"},
+        unit=UNIT,
     script:
         "../../scripts/diagnose.py"
 
@@ -105,6 +106,6 @@ rule diagnosis_report:
     params:
         code=PACKAGE_CODE,
         target=TARGET,
-        unit=config["units"]["target"],
+        unit=UNIT,
     script:
         "../../scripts/diagnosis_report.py"

@@ -51,6 +51,7 @@ rule matched_check:
         inputs=INPUTS,
         matched_simulated=config["columns"]["matched_simulated"],
         matched_measured=config["columns"]["matched_measured"],
+        unit=UNIT,
     script:
         "../../scripts/matched_check.py"
 
@@ -73,6 +74,7 @@ rule figure_errors:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
+        unit=UNIT,
     script:
         "../../scripts/figure_errors.py"
 

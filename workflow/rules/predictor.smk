@@ -39,7 +39,7 @@ rule prediction_intervals:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         target=TARGET,
-        unit=config["units"]["target"],
+        unit=UNIT,
         csv=config["csv"],
         matched_measured=config["columns"]["matched_measured"],
         seed=SEED,

@@ -23,6 +23,7 @@ rule surrogate_cv:
         folds=FOLDS,
         seed=SEED,
         n_restarts=config["surrogate"]["n_restarts"],
+        unit=UNIT,
     script:
         "../../scripts/surrogate_cv.py"
 
