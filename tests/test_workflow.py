@@ -140,8 +140,8 @@ def test_diagnosis_report_states_the_data(run_dir):
     text = (results / "diagnosis.md").read_text()
     residuals = pd.read_csv(results / "residuals/production_residuals.csv")
     offset = residuals.loc[residuals["in_support"].astype(bool), "residual_approx"].mean()
-    words = f"**{abs(offset):.2f} mm {'more' if offset > 0 else 'less'}**"
-    assert f"On average the plant draws in {words} than simulated" in text
+    words = f"**{abs(offset):.2f} mm {'higher' if offset > 0 else 'lower'}**"
+    assert f"On average the measured `draw_in_mm` is {words} than simulated" in text
     summary = json.loads((results / "diagnosis/diagnosis.json").read_text())
     assert summary["offset"] == pytest.approx(offset)
     causes = pd.read_csv(results / "tables/discrepancy_causes.csv")
