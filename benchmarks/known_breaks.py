@@ -45,6 +45,7 @@ BREAKS = [
     ),
 ]
 
+TIMEOUT_S = 300  # the fast tests take under a minute; a break that hangs them is reported, not waited for
 FAST_TESTS = [
     "tests/test_units.py",
     "tests/test_forms.py",
@@ -67,17 +68,26 @@ def main() -> int:
             if text.count(old) != 1:
                 raise SystemExit(f"break {number}: the line to break is no longer in {path}: {old!r}")
             target.write_text(text.replace(old, new, 1))
-            result = subprocess.run(
-                [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *FAST_TESTS],
-                cwd=copy,
-                capture_output=True,
-                text=True,
-                env={**os.environ, "PYTHONPATH": str(copy)},
-            )
+            try:
+                result = subprocess.run(
+                    [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *FAST_TESTS],
+                    cwd=copy,
+                    capture_output=True,
+                    text=True,
+                    env={**os.environ, "PYTHONPATH": str(copy)},
+                    timeout=TIMEOUT_S,
+                )
+            except subprocess.TimeoutExpired:  # a break that makes the fast tests hang is not caught by them
+                result = None
             target.write_text(text)
+            if result is None:
+                survived += 1
+                print(f"{number:2d} HUNG (over {TIMEOUT_S} s) {path}", flush=True)
+                continue
             failed = [line for line in result.stdout.splitlines() if line.startswith("FAILED")][:1]
             survived += result.returncode == 0
-            print(f"{number:2d} {'caught' if result.returncode else 'SURVIVED'} {path}: {failed[0] if failed else ''}")
+            verdict = "caught" if result.returncode else "SURVIVED"
+            print(f"{number:2d} {verdict} {path}: {failed[0] if failed else ''}", flush=True)
     print(f"{len(BREAKS) - survived} of {len(BREAKS)} breaks caught by the fast tests")
     return 1 if survived else 0
 
