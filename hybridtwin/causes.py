@@ -49,6 +49,10 @@ class Cause:
     columns: tuple[str, ...]
     origin: str | None = None  # time causes: the timestamp elapsed hours count from
 
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"cause {self.name!r}: unknown kind {self.kind!r} (one of {', '.join(KINDS)})")
+
     def values(self, frame: pd.DataFrame) -> np.ndarray:
         """The values a cause's form is fitted on: numbers, elapsed hours, level labels or a column pair."""
         if self.kind == "interaction":

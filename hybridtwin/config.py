@@ -1,10 +1,11 @@
 """The workflow's config, checked against one JSON schema shipped in this package.
 
 The schema (``config.schema.yaml`` beside this module) is the single source of the
-config's keys, types, ranges and defaults: the Snakefile, the frozen predictor and the
-tests read the same file. A bad value stops with one plain line that names the key, the
-value and the rule it breaks, for example ``config error: tuning.n_trials = 0, must be
-at least 1``, instead of a dump of the validator's state.
+config's keys, types, ranges and defaults: the Snakefile and the tests read the same file.
+A bad value stops with one plain line that names the key, the value and the rule it
+breaks, for example ``config error: tuning.n_trials = 0, must be at least 1``, instead
+of a dump of the validator's state. Only the standard library, jsonschema and PyYAML are
+imported here: Snakemake's own environment has them.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from pathlib import Path
 import jsonschema
 import yaml
 
-from .data import InputError, other_csvs
+from .errors import InputError, other_csvs
 
 SCHEMA_PATH = Path(__file__).with_name("config.schema.yaml")
 
@@ -28,6 +29,7 @@ TYPE_WORDS = {
     "array": "a list",
     "object": "a mapping of keys to values",
     "boolean": "true or false",
+    "null": "empty",
 }
 
 
@@ -66,12 +68,16 @@ def check(config: dict) -> dict:
     return config
 
 
+def _as_list(value) -> list:
+    return list(value) if isinstance(value, (list, tuple)) else [value]
+
+
 def _key(path) -> str:
     return ".".join(str(part) for part in path)
 
 
 def _value(value) -> str:
-    return repr(value) if isinstance(value, str) else json.dumps(value)
+    return repr(value) if isinstance(value, str) else json.dumps(value, default=str)
 
 
 def describe(error: jsonschema.ValidationError) -> str:
@@ -92,10 +98,11 @@ def describe(error: jsonschema.ValidationError) -> str:
         "maximum": lambda: f"must be at most {limit}",
         "exclusiveMinimum": lambda: f"must be more than {limit}",
         "exclusiveMaximum": lambda: f"must be less than {limit}",
-        "type": lambda: f"must be {TYPE_WORDS.get(limit, limit)}",
+        "type": lambda: "must be " + " or ".join(TYPE_WORDS.get(kind, kind) for kind in _as_list(limit)),
         "enum": lambda: "must be one of " + ", ".join(_value(option) for option in limit),
         "minItems": lambda: f"must list at least {limit}",
         "minLength": lambda: "must not be empty",
+        "pattern": lambda: "must not be blank",
         "uniqueItems": lambda: "must not list a name twice",
     }.get(rule, lambda: error.message)()
     return f"config error: {key or 'the config'} = {_value(error.instance)}, {says}"

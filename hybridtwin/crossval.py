@@ -34,6 +34,14 @@ def splits_of(fold_ids) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(np.flatnonzero(ids != fold), np.flatnonzero(ids == fold)) for fold in np.unique(ids)]
 
 
+def written_splits(written: pd.DataFrame, rows) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The split written beside out-of-fold predictions (columns ``row``, ``fold``), for ``rows`` in that
+    order; a table written for other rows is an error, not a silently different split."""
+    if not np.array_equal(written["row"].to_numpy(int), np.asarray(rows, int)):
+        raise ValueError("the written folds belong to other rows than these: rerun the residual CV")
+    return splits_of(written["fold"])
+
+
 def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) -> tuple[pd.DataFrame, np.ndarray]:
     """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only.
 

@@ -26,9 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-
-class InputError(ValueError):
-    """Bad input data or configuration; the message says where and what."""
+from .errors import InputError, other_csvs
 
 
 class DataWarning(UserWarning):
@@ -90,19 +88,6 @@ MISSING_TEXTS = frozenset({"nan", "-nan", "+nan", "na", "n/a", "#n/a", "null", "
 def _line(row_index: int) -> str:
     """Data row (0-based) as the line an editor shows, the header being line 1."""
     return f"row {row_index + 1} (line {row_index + 2})"
-
-
-def other_csvs(path: Path) -> str:
-    """For a missing file: the CSV files that are in its folder, and the closest name."""
-    folder = path.parent
-    if not folder.is_dir():
-        return f"; the folder {str(folder)!r} does not exist either"
-    names = sorted(p.name for p in folder.iterdir() if p.suffix.lower() == ".csv" and p.is_file())
-    if not names:
-        return f"; there is no CSV file in {str(folder)!r}"
-    shown = ", ".join(map(repr, names[:20])) + (f", … ({len(names)} in all)" if len(names) > 20 else "")
-    close = difflib.get_close_matches(path.name, names, n=1, cutoff=0.6)
-    return f"; CSV files in {str(folder)!r}: {shown}" + (f" — did you mean {close[0]!r}?" if close else "")
 
 
 def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:

@@ -26,7 +26,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 from . import forms
-from .causes import Cause, Term, elapsed_hours, time_origin
+from .causes import Cause, Term, parse_timestamps, time_origin
 from .crossval import folds as kfolds
 from .forms import fit_form
 from .metrics import block_means, block_p_value
@@ -175,7 +175,7 @@ def build_candidates(
     frame: pd.DataFrame, inputs, exclude, settings: Settings
 ) -> tuple[list[Candidate], dict[str, str]]:
     """Candidate causes from every usable column, and the reasons others were skipped."""
-    candidates, skipped = [], {}
+    causes, skipped = [], {}
     for column in frame.columns:
         if column in exclude or column in settings.exclude:
             continue
@@ -187,24 +187,21 @@ def build_candidates(
             if values.isna().any() or not np.isfinite(values.to_numpy(float)).all():
                 skipped[column] = "missing or infinite values"
                 continue
-            kind = "input" if column in inputs else "log"
-            candidates.append(Candidate.new(column, kind, values.to_numpy(float), (column,)))
-            continue
-        hours = elapsed_hours(values)
-        if hours is not None:
-            candidates.append(Candidate.new(column, "time", hours, (column,), time_origin(values)))
+            causes.append(Cause(column, "input" if column in inputs else "log", (column,)))
+        elif parse_timestamps(values) is not None:
+            causes.append(Cause(column, "time", (column,), time_origin(values)))
         elif values.nunique() <= settings.max_levels:
-            candidates.append(Candidate.new(column, "group", values.astype(str).to_numpy(), (column,)))
+            causes.append(Cause(column, "group", (column,)))
         else:
             skipped[column] = f"text with {values.nunique()} distinct values (more than {settings.max_levels})"
     if settings.interactions:
-        numeric_inputs = [c for c in candidates if c.kind == "input"]
-        for a, b in itertools.combinations(numeric_inputs, 2):
-            candidates.append(
-                Candidate.new(
-                    f"{a.name}*{b.name}", "interaction", np.column_stack([a.values, b.values]), (a.name, b.name)
-                )
-            )
+        numeric_inputs = [c for c in causes if c.kind == "input"]
+        causes += [
+            Cause(f"{a.name}*{b.name}", "interaction", (a.name, b.name))
+            for a, b in itertools.combinations(numeric_inputs, 2)
+        ]
+    # read as the extension and the predictor read them (Cause.values)
+    candidates = [Candidate(cause, cause.values(frame)) for cause in causes]
     return candidates, skipped
 
 

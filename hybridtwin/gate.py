@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.neighbors import NearestNeighbors
 from sklearn.utils.validation import check_is_fitted
@@ -118,6 +119,11 @@ class KNNSupportGate(BaseEstimator):
     def within(self, distance) -> np.ndarray:
         """The gate's rule: in support where the kNN distance is at most the threshold."""
         return np.asarray(distance) <= self.threshold_
+
+    def support_table(self, X) -> pd.DataFrame:
+        """knn_distance and in_support per row (the support tables of production and matched cases)."""
+        distance = self.distance(X)
+        return pd.DataFrame({"knn_distance": distance, "in_support": self.within(distance)})
 
     def to_dict(self) -> dict:
         return {

@@ -1,7 +1,5 @@
 """The matched cases' distance to the DoE and their in_support, with the workflow's gate."""
 
-import pandas as pd
-
 from hybridtwin import data, files
 from hybridtwin.gate import KNNSupportGate
 from hybridtwin.runner import run
@@ -10,12 +8,7 @@ from hybridtwin.runner import run
 def main(snakemake):
     matched = files.read_checked(snakemake.input.matched)
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
-    support = pd.DataFrame(
-        {
-            "knn_distance": gate.distance(matched[snakemake.params.inputs]),
-            "in_support": gate.predict(matched[snakemake.params.inputs]),
-        }
-    )
+    support = gate.support_table(matched[snakemake.params.inputs])
     data.warn_matched_outside(support["in_support"].to_numpy(), snakemake.params.paths)
     files.write_csv(support, snakemake.output.support)
 

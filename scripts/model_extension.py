@@ -1,10 +1,11 @@
 """Extend the physics side with the diagnosed causes; measure the gain in and out of the support."""
 
+import numpy as np
 import pandas as pd
 
 from hybridtwin import extension, files, residual
 from hybridtwin.causes import Term
-from hybridtwin.crossval import splits_of
+from hybridtwin.crossval import written_splits
 from hybridtwin.files import in_support, read_checked
 from hybridtwin.runner import run
 
@@ -20,7 +21,7 @@ def main(snakemake):
         return residual.make_model(params, p.seed, snakemake.threads)
 
     # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
-    splits = splits_of(read_checked(snakemake.input.hybrid_folds)["fold"])
+    splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(in_support(residuals)))
     result = extension.evaluate(
         read_checked(snakemake.input.production),
         residuals,

@@ -1,7 +1,5 @@
 """Step 2: kNN support gate; distance and in_support for every production row."""
 
-import pandas as pd
-
 from hybridtwin import data, files, plots
 from hybridtwin.gate import DoEStandardizer, KNNSupportGate
 from hybridtwin.runner import run
@@ -14,8 +12,8 @@ def main(snakemake):
     gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile, standardizer=standardizer).fit(
         doe[inputs]
     )
-    distance = gate.distance(production[inputs])
-    support = pd.DataFrame({"knn_distance": distance, "in_support": gate.within(distance)})
+    support = gate.support_table(production[inputs])
+    distance = support["knn_distance"].to_numpy()
     data.check_support(
         support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths, gate.threshold_
     )

@@ -447,6 +447,28 @@ def test_config_data_entry_missing(case):
     fails(case, "config error: data.matched is missing (under data)")
 
 
+@pytest.mark.parametrize(
+    "key, value, line",
+    [
+        ("whatif", 5, "config error: whatif = 5, must be text or empty"),
+        (
+            "results_dir",
+            __import__("datetime").date(2024, 6, 7),
+            'config error: results_dir = "2024-06-07", must be text',
+        ),
+    ],
+    ids=["number-for-a-path-or-nothing", "unquoted-yaml-date"],
+)
+def test_config_values_of_any_type_get_one_plain_line(case, key, value, line):
+    case.settings[key] = value
+    assert fails(case, line) == line
+
+
+def test_a_blank_column_name_is_a_config_error(case):
+    case.settings["columns"]["target"] = "  "
+    fails(case, "config error: columns.target = '  ', must not be blank")
+
+
 def test_a_misspelled_config_key_is_named_with_the_key_it_resembles(case):
     case.settings["tunning"] = {"n_trials": 3}
     fails(case, "config error: tunning is not a known key, did you mean 'tuning'?")

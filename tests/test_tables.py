@@ -1,4 +1,4 @@
-"""Table builders of hybridtwin.hybrid and the out-of-fold splicing behind every production error."""
+"""Table builders of hybridtwin.tables and the out-of-fold splicing behind every production error."""
 
 import numpy as np
 import pandas as pd

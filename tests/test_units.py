@@ -14,7 +14,7 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from hybridtwin import hybrid, residual, tables
-from hybridtwin.crossval import cross_validate, fold_ids, folds, splits_of
+from hybridtwin.crossval import cross_validate, fold_ids, folds, splits_of, written_splits
 from hybridtwin.gate import DoEStandardizer, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
 from hybridtwin.surrogate import GPRSurrogate
@@ -199,6 +199,11 @@ def test_written_fold_ids_give_back_the_very_split():
     for (train, test), (train_again, test_again) in zip(split, splits_of(ids), strict=True):
         np.testing.assert_array_equal(train, train_again)
         np.testing.assert_array_equal(test, test_again)
+    rows = np.arange(23) * 3  # in-support rows of a larger log
+    written = pd.DataFrame({"row": rows, "fold": ids})
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(written_splits(written, rows), split, strict=True))
+    with pytest.raises(ValueError, match="other rows"):
+        written_splits(written, rows + 1)
 
 
 def test_approximate_residuals_are_measured_less_the_surrogate():
