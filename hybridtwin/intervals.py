@@ -2,15 +2,18 @@
 
 Errors grow away from the DoE, so one interval width for every row would be
 too wide inside the support and too narrow far outside it. The rows are put in
-regions: in support, and out of support in bins of the kNN distance to the DoE
-(a row inside the gate but beyond the DoE's range in some input counts as out
-of support, nearest bin). In each region:
+regions: in support, and out of support in bins of the kNN distance to the DoE.
+In each region:
 
 - the **recommended model** is the one with the lowest RMSE on the calibration
   rows (honest predictions only: out-of-fold inside the support, models never
-  trained on the row outside);
+  trained on the row outside), all models compared on the same rows;
 - its **interval** is split-conformal (Mondrian, by region; ``crepes``) on the
-  same calibration rows' absolute errors.
+  calibration rows' absolute errors.
+
+A row inside the gate but beyond the DoE's range in some input takes the
+support's model (the models learnt from such parts) and an interval calibrated
+out of support, nearest bin (no simulation backs its setting): ``Regions``.
 
 Calibration and test rows are alternating blocks of consecutive production
 rows (a plant's log is in time order), so a test row's neighbours in time are
@@ -113,6 +116,40 @@ def regions(in_support, beyond_range, distance, edges) -> np.ndarray:
     return labels
 
 
+@dataclass(frozen=True)
+class Regions:
+    """Two region labels per row: where its model is chosen, and where its interval is calibrated.
+
+    They differ only for a row inside the gate but beyond the DoE's range in some input. Its model is
+    chosen among the in-support ranking, because every model saw such parts in training (the row's
+    honest errors are out-of-fold ones, like those of the rest of the support); its interval is
+    calibrated out of support, because no simulation backs the setting.
+    """
+
+    choice: np.ndarray
+    interval: np.ndarray
+
+    @classmethod
+    def of(cls, in_support, beyond_range, distance, edges) -> "Regions":
+        return cls(
+            regions(in_support, np.zeros(len(distance), bool), distance, edges),
+            regions(in_support, beyond_range, distance, edges),
+        )
+
+    @classmethod
+    def same(cls, labels) -> "Regions":
+        """One labelling for both (no row beyond the DoE's range, or a single pooled region)."""
+        labels = np.asarray(labels, object)
+        return cls(labels, labels)
+
+    def __getitem__(self, rows) -> "Regions":
+        return Regions(self.choice[rows], self.interval[rows])
+
+
+def _regions(region) -> Regions:
+    return region if isinstance(region, Regions) else Regions.same(region)
+
+
 def calibration_rows(n_rows: int, n_blocks: int) -> np.ndarray:
     """True for calibration rows: the even ones of ``n_blocks`` blocks of consecutive rows."""
     block = np.arange(n_rows) * n_blocks // max(n_rows, 1)
@@ -199,31 +236,39 @@ class RegionIntervals:
         cls,
         measured,
         honest: dict[str, np.ndarray],
-        region: np.ndarray,
+        region: "Regions | np.ndarray",
         calibration: np.ndarray,
         edges: list[float],
         distance=None,
         seed: int = 0,
     ) -> "RegionIntervals":
         measured = np.asarray(measured, float)
-        region = np.asarray(region, object)
-        table, ranking, weights = {}, {}, {}
+        region = _regions(region)
         members = _stack_members(honest)
-        for name in sorted(set(region[calibration])):
-            rows = _subsample(np.flatnonzero(calibration & (region == name)), MAX_CALIBRATION_ROWS, seed)
-            candidates = dict(honest)
+        stack = np.full(len(measured), np.nan)
+        weights, ranked_rows = {}, {}
+        for name in sorted(set(region.choice[calibration])):
+            rows = np.flatnonzero(calibration & (region.choice == name))  # all of them: the choice is noisy enough
             complete = rows[np.all([np.isfinite(p[rows]) for p in members.values()], axis=0)] if members else rows[:0]
             if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
                 weights[name] = stack_weights(measured, members, complete)
-                candidates[STACK] = _cross_fitted_stack(measured, members, complete)
+                stack[complete] = _cross_fitted_stack(measured, members, complete)[complete]
+            ranked_rows[name] = rows
+        candidates = {**honest, STACK: stack} if weights else dict(honest)
+        ranking = {
+            name: _ranking(measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows)
+            for name, rows in ranked_rows.items()
+        }
+        table = {}
+        for name in sorted(set(region.interval[calibration])):
+            rows = _subsample(np.flatnonzero(calibration & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
             for model, prediction in candidates.items():
                 scored = rows[np.isfinite(prediction[rows])]  # a peer has no honest value on the parts it trained on
                 if len(scored):
                     table.setdefault(model, {})[name] = np.round(
                         np.abs(measured[scored] - prediction[scored]), 6
                     ).tolist()
-            ranking[name] = _ranking(measured, {m: p for m, p in candidates.items() if m in table}, rows)
-        outside = calibration & (region != IN_SUPPORT)
+        outside = calibration & (region.interval != IN_SUPPORT)
         max_distance = (
             float(np.max(np.asarray(distance, float)[outside])) if outside.any() and distance is not None else None
         )
@@ -231,10 +276,10 @@ class RegionIntervals:
 
     def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
         """The predictions with the stack added (each row blended with its region's weights; NaN without)."""
-        region = np.asarray(region, object)
-        stacked = np.full(len(region), np.nan)
+        choice = _regions(region).choice
+        stacked = np.full(len(choice), np.nan)
         for name, weights in self.weights.items():
-            rows = np.flatnonzero(region == name)
+            rows = np.flatnonzero(choice == name)
             if len(rows) and all(m in predictions for m in weights):
                 stacked[rows] = blend(weights, predictions, rows)
         return {**predictions, STACK: stacked}
@@ -245,7 +290,8 @@ class RegionIntervals:
 
     @property
     def regions(self) -> list[str]:
-        return sorted(self.ranking)
+        """The regions with calibrated intervals."""
+        return sorted({name for per_region in self.calibration.values() for name in per_region})
 
     def interval(self, model: str, prediction, region, level: float) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds at ``level``; NaN in a region without calibration rows."""
@@ -262,7 +308,7 @@ class RegionIntervals:
     def recommend(self, region, predictions: dict[str, np.ndarray] | None = None) -> np.ndarray:
         """The recommended model's name per row: the best of its region's ranking that has a value there
         (a model whose inputs a row lacks has none); the paper's gated hybrid where a region has no calibration."""
-        region = np.asarray(region, object)
+        region = _regions(region).choice
         chosen = np.full(len(region), "hybrid_gated", dtype=object)
         for name, order in self.ranking.items():
             rows = np.flatnonzero(region == name)
@@ -298,6 +344,7 @@ def recommended_prediction(
     intervals: RegionIntervals, predictions: dict[str, np.ndarray], region, level: float
 ) -> pd.DataFrame:
     """pred_recommended, recommended_model, pred_lower, pred_upper per row."""
+    region = _regions(region)
     chosen = intervals.recommend(region, predictions)
     n = len(chosen)
     out = pd.DataFrame(
@@ -308,10 +355,9 @@ def recommended_prediction(
             "pred_upper": np.full(n, np.nan),
         }
     )
-    region = np.asarray(region, object)
     for model in sorted(set(chosen)):
         rows = np.flatnonzero(chosen == model)
-        lower, upper = intervals.interval(model, predictions[model][rows], region[rows], level)
+        lower, upper = intervals.interval(model, predictions[model][rows], region.interval[rows], level)
         out.loc[rows, "pred_recommended"] = predictions[model][rows]
         out.loc[rows, "pred_lower"] = lower
         out.loc[rows, "pred_upper"] = upper
@@ -336,7 +382,7 @@ def _region_label(name: str, edges: list[float], threshold: float) -> str:
 def _bounds(
     intervals: RegionIntervals,
     predictions: dict[str, np.ndarray],
-    labels: np.ndarray,
+    labels: Regions,
     rows: np.ndarray,
     model: str,
     level: float,
@@ -349,7 +395,7 @@ def _bounds(
             picked["pred_lower"].to_numpy(float),
             picked["pred_upper"].to_numpy(float),
         )
-    lower, upper = intervals.interval(model, predictions[model][rows], labels[rows], level)
+    lower, upper = intervals.interval(model, predictions[model][rows], labels.interval[rows], level)
     return predictions[model][rows], lower, upper
 
 
@@ -371,10 +417,11 @@ def coverage_table(
     A model is scored on the test rows where it has an honest prediction (``n_test``).
     """
     measured = np.asarray(measured, float)
-    region = np.asarray(region, object)
-    pooled_labels = np.full(len(region), "all", dtype=object)
+    by_region = _regions(region)
+    region = by_region.interval
+    pooled = Regions.same(np.full(len(region), "all", dtype=object))
     methods = {}
-    for method, labels, method_edges in (("by_region", region, edges), ("pooled", pooled_labels, [])):
+    for method, labels, method_edges in (("by_region", by_region, edges), ("pooled", pooled, [])):
         fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
         methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
     test = ~calibration
@@ -433,7 +480,7 @@ class Calibration:
 
     intervals: RegionIntervals
     table: pd.DataFrame
-    region: np.ndarray
+    region: Regions
     calibration: np.ndarray
     honest: dict[str, np.ndarray]  # with the stack
 
@@ -455,7 +502,7 @@ def calibrate(
     distance = predictions["knn_distance"].to_numpy(float)
     calibration = calibration_rows(len(predictions), n_blocks)
     edges = distance_edges(distance[calibration & ~(inside & ~beyond)], n_bins)
-    region = regions(inside, beyond, distance, edges)
+    region = Regions.of(inside, beyond, distance, edges)
     honest = honest_predictions(predictions)
     measured = predictions["measured"].to_numpy(float)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed)
@@ -480,9 +527,9 @@ def figure_data(calibrated: Calibration, measured, distance, level: float, seed:
     return {
         "distance": np.asarray(distance, float)[shown],
         "error": error[shown],
-        "region": calibrated.region[shown],
+        "region": calibrated.region.interval[shown],
         "half_width": {
-            name: float(np.nanmedian(half[calibrated.region == name])) for name in calibrated.intervals.regions
+            name: float(np.nanmedian(half[calibrated.region.interval == name])) for name in calibrated.intervals.regions
         },
         "coverage": dict(zip(recommended["region"], recommended["coverage"])),
     }

@@ -219,7 +219,7 @@ class Predictor:
         in_support = self.gate.within(distance)
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
-        region = intervals.regions(in_support, beyond_range, distance, self.intervals.edges)
+        region = intervals.Regions.of(in_support, beyond_range, distance, self.intervals.edges)
         predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers), region)
         answers = {
             "in_support": in_support,
@@ -227,7 +227,7 @@ class Predictor:
             "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
             **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
             "in_domain": in_support & ~beyond_range,
-            "region": region,
+            "region": region.interval,
             **{f"pred_{model}": value for model, value in predictions.items()},
         }
         recommended = intervals.recommended_prediction(self.intervals, predictions, region, level)
@@ -238,7 +238,7 @@ class Predictor:
             if column in out.columns:
                 log.warning("the what-if table's column %r is replaced by the predictor's", column)
             out[column] = answers[column]
-        uncalibrated = ~np.isin(region, self.intervals.regions)
+        uncalibrated = ~np.isin(region.interval, self.intervals.regions)
         if uncalibrated.any():
             log.warning(
                 "%d row(s) in a region without calibration rows (the run had no production there): no "

@@ -71,6 +71,34 @@ def test_a_row_inside_the_gate_but_beyond_the_doe_range_is_out_of_support():
     assert labels.tolist() == ["in_support", "out_of_support_1", "out_of_support_1", "out_of_support_2"]
 
 
+def test_a_row_beyond_the_doe_range_inside_the_gate_takes_the_supports_model_and_an_outside_interval():
+    # in the gate, "hybrid" is exact and "extended" off by 2; outside it the other way round,
+    # with noise 1 in the gate and 3 outside
+    rng = np.random.default_rng(3)
+    n = 8000
+    inside = np.arange(n) % 2 == 0
+    beyond = inside & (np.arange(n) % 4 == 0)  # half the gate's rows lie beyond the DoE's range
+    distance = np.where(inside, 0.5, 1.5)
+    truth = np.zeros(n)
+    measured = truth + rng.normal(0, np.where(inside, 1.0, 3.0))
+    honest = {"hybrid": np.where(inside, 0.0, 2.0), "extended": np.where(inside, 2.0, 0.0)}
+    region = intervals.Regions.of(inside, beyond, distance, [])
+    assert region.choice[beyond].tolist() == ["in_support"] * beyond.sum()
+    assert region.interval[beyond].tolist() == ["out_of_support_1"] * beyond.sum()
+    calibration = intervals.calibration_rows(n, 10)
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], distance)
+    picked = intervals.recommended_prediction(fitted, fitted.with_stack(honest, region), region, LEVEL)
+    in_support_model = fitted.recommended["in_support"]
+    assert in_support_model in ("hybrid", "stack") and fitted.recommended["out_of_support_1"] in ("extended", "stack")
+    assert set(picked.loc[beyond, "recommended_model"]) == {in_support_model}
+    # the beyond-range row's interval comes from the out-of-support errors of its model: wider than in support
+    width = (picked["pred_upper"] - picked["pred_lower"]).to_numpy()
+    within = inside & ~beyond
+    assert width[beyond].mean() > 2 * width[within].mean()
+    # the intervals are calibrated in the two interval regions, the ranking made in the two choice regions
+    assert fitted.regions == ["in_support", "out_of_support_1"] and sorted(fitted.ranking) == fitted.regions
+
+
 def test_outside_range_is_in_the_inputs_own_unit_and_named():
     frame = pd.DataFrame({"die_temp_c": [40.0, 58.5, 10.0], "shim_mm": [0.2, 0.2, 0.2]})
     doe_range = {"die_temp_c": (15.0, 55.0), "shim_mm": (0.0, 0.6)}

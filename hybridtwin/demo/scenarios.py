@@ -389,6 +389,17 @@ def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
 COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "stack", "recommended")
 
 
+def truth_scores(truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray) -> dict[str, float]:
+    """Truth-RMSE of each compared model out of and in the support, all on the same test rows: those
+    where every one has an honest prediction (a peer has none on the parts it was trained on)."""
+    common = test & np.all([np.isfinite(honest[model]) for model in COMPARED_MODELS], axis=0)
+    scored = {}
+    for model in COMPARED_MODELS:
+        for where, mask in (("out", common & ~inside), ("in", common & inside)):
+            scored[f"{model}_{where}"] = rmse(truth[mask], honest[model][mask]) if mask.any() else float("nan")
+    return scored
+
+
 def compare_models(
     case: PlantCase,
     seed: int,
@@ -472,12 +483,7 @@ def compare_models(
     honest["recommended"] = intervals.recommended_prediction(
         calibrated.intervals, calibrated.honest, calibrated.region, level
     )["pred_recommended"].to_numpy()
-    test = ~calibrated.calibration
-    scored = {}
-    for model in COMPARED_MODELS:
-        for where, mask in (("out", test & ~inside), ("in", test & inside)):
-            ok = mask & np.isfinite(honest[model])
-            scored[f"{model}_{where}"] = rmse(case.truth[ok], honest[model][ok]) if ok.any() else float("nan")
+    scored = truth_scores(case.truth, honest, ~calibrated.calibration, inside)
     scored["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
     scored["n_in_support"] = int(inside.sum())
     return scored
