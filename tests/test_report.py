@@ -94,3 +94,15 @@ def test_a_sample_of_the_in_support_parts_is_stated():
     text = diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm")
     assert "a seeded random sample of 10,000 of the 11,823 in-support production parts" in text
     assert "| model | in support (CV) | out of support |" in text
+
+
+def test_report_pages_escape_names_give_human_headers_and_units():
+    from hybridtwin import pages
+
+    table = pd.DataFrame({"model": ["<b>hybrid</b>"], "rmse_truth_out_of_support": [1.23456], "n_test": [11823]})
+    page = pages.table_page(table, "Table 5", "results/tables/table5.csv", "°C")
+    assert "&lt;b&gt;hybrid&lt;/b&gt;" in page and "<b>hybrid" not in page
+    assert "<th>RMSE truth out of support [°C]</th>" in page and "<th>n test</th>" in page
+    assert "<td>1.235</td>" in page and "<td>11,823</td>" in page
+    words = pages.markdown_page("# Title\n\n| a | b |\n|---|---|\n| `x` | 2 |\n", "Diagnosis", "results/diagnosis.md")
+    assert "<h1>Title</h1>" in words and "<td><code>x</code></td>" in words

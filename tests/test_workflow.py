@@ -5,6 +5,7 @@ second run in another folder must give byte-identical tables; a third reuses the
 first folder with changed matched cases, which must not move any trained model.
 """
 
+import base64
 import filecmp
 import json
 import os
@@ -185,10 +186,24 @@ def test_same_config_same_data_same_tables(run_dir, tmp_path):
     assert not mismatch and not errors, f"tables differ between two runs: {mismatch}"
 
 
-def test_report_builds(run_dir):
+def embedded_page(report_html: str, name: str) -> str:
+    """A result embedded in Snakemake's self-contained report (a base64 data URI named by the file)."""
+    match = re.search(rf"filename={re.escape(name)};base64,([A-Za-z0-9+/=]+)", report_html)
+    assert match, f"{name} is not embedded in the report"
+    return base64.b64decode(match.group(1)).decode("utf-8")
+
+
+def test_report_shows_the_tables_and_the_diagnosis_inside_it(run_dir):
     snakemake(run_dir, "--report", "results/report.html")
     html = (run_dir / "results/report.html").read_text(errors="replace")
-    assert "table5_sensitivity.csv" in html and "figure2_residual_check.png" in html
+    assert "figure2_residual_check.png" in html
+    # tables reach the report as HTML pages (shown inside it), with their values and human headers
+    table5 = pd.read_csv(run_dir / "results/tables/table5_sensitivity.csv")
+    page = embedded_page(html, "table5.html")
+    number = table5["rmse_filtered_train_gated"].iloc[0]
+    assert f"{number:.4g}" in page and "<table" in page and "RMSE" in page
+    diagnosis = embedded_page(html, "diagnosis.html")
+    assert "<h1>What the simulation gets wrong" in diagnosis and "<table>" in diagnosis
 
 
 def test_matched_cases_never_used_for_training_or_tuning(run_dir, tmp_path):

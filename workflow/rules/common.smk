@@ -101,6 +101,7 @@ def final_outputs():
             f"{TABLES}/peer_comparison.csv",
             f"{MODELS}/predictor.json",
             f"{RESULTS}/enrichment/proposed_simulations.csv",
+            f"{RESULTS}/report/diagnosis.html",  # with every other page of the report (rule report_pages)
         ]
         + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
     )

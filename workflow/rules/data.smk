@@ -119,7 +119,7 @@ rule table1:
         matched=CHECKED["matched"],
         support=rules.support_gate.output.production,
     output:
-        table=report(f"{TABLES}/table1_datasets.csv", caption="../report/table1.rst", category="1. Data and support"),
+        table=f"{TABLES}/table1_datasets.csv",
     log:
         log_of("table1"),
     benchmark:

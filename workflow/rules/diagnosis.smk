@@ -9,9 +9,7 @@ rule diagnose:
         residuals=rules.residuals.output.residuals,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        table=report(
-            f"{TABLES}/discrepancy_causes.csv", caption="../report/discrepancy_causes.rst", category="6. Diagnosis"
-        ),
+        table=f"{TABLES}/discrepancy_causes.csv",
         summary=f"{RESULTS}/diagnosis/diagnosis.json",
         figures=report(
             expand(f"{FIGURES}/cause_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
@@ -49,7 +47,7 @@ rule model_extension:
         summary=rules.diagnose.output.summary,
         best=rules.tune_residual.output.best,
     output:
-        table=report(f"{TABLES}/model_extension.csv", caption="../report/model_extension.rst", category="6. Diagnosis"),
+        table=f"{TABLES}/model_extension.csv",
         extension=f"{MODELS}/extension.json",
         remainder=f"{MODELS}/residual_xgb_extended.json",
         predictions=f"{RESULTS}/predictions/extension.csv",
@@ -96,7 +94,7 @@ rule diagnosis_report:
         summary=rules.diagnose.output.summary,
         gain=rules.model_extension.output.table,
     output:
-        report=report(f"{RESULTS}/diagnosis.md", caption="../report/diagnosis_md.rst", category="6. Diagnosis"),
+        report=f"{RESULTS}/diagnosis.md",
     log:
         log_of("diagnosis_report"),
     benchmark:

@@ -8,11 +8,7 @@ rule propose_simulations:
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        table=report(
-            f"{RESULTS}/enrichment/proposed_simulations.csv",
-            caption="../report/proposed_simulations.rst",
-            category="8. Next simulations",
-        ),
+        table=f"{RESULTS}/enrichment/proposed_simulations.csv",
         share=report(
             f"{FIGURES}/enrichment_share.png", caption="../report/enrichment_share.rst", category="8. Next simulations"
         ),

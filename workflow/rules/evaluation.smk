@@ -33,9 +33,7 @@ rule matched_check:
         model=f"{MODELS}/residual_xgb_filtered.json",
         predictions=rules.predict_production.output.predictions,
     output:
-        summary=report(
-            f"{TABLES}/matched_check.csv", caption="../report/matched_check.rst", category="4. Hybrid evaluation"
-        ),
+        summary=f"{TABLES}/matched_check.csv",
         cases=f"{TABLES}/matched_cases.csv",
         figure=report(
             f"{FIGURES}/figure2_residual_check.png", caption="../report/figure2.rst", category="4. Hybrid evaluation"
@@ -83,9 +81,7 @@ rule sensitivity:
     input:
         predictions=rules.predict_production.output.predictions,
     output:
-        table=report(
-            f"{TABLES}/table5_sensitivity.csv", caption="../report/table5.rst", category="4. Hybrid evaluation"
-        ),
+        table=f"{TABLES}/table5_sensitivity.csv",
     log:
         log_of("sensitivity"),
     benchmark:
@@ -105,9 +101,7 @@ rule synthetic:
         surrogate=rules.surrogate_fit.output.model,
         model=f"{MODELS}/residual_xgb_filtered.json",
     output:
-        doe=report(
-            f"{RESULTS}/synthetic/doe_corrected.csv", caption="../report/synthetic.rst", category="5. Synthetic data"
-        ),
+        doe=f"{RESULTS}/synthetic/doe_corrected.csv",
         support=f"{RESULTS}/synthetic/support_samples.csv",
     log:
         log_of("synthetic"),

@@ -16,14 +16,8 @@ rule prediction_intervals:
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
-        comparison=report(
-            f"{TABLES}/peer_comparison.csv", caption="../report/peer_comparison.rst", category="7. What-if predictions"
-        ),
-        table=report(
-            f"{TABLES}/prediction_intervals.csv",
-            caption="../report/prediction_intervals.rst",
-            category="7. What-if predictions",
-        ),
+        comparison=f"{TABLES}/peer_comparison.csv",
+        table=f"{TABLES}/prediction_intervals.csv",
         figure=report(
             f"{FIGURES}/prediction_intervals.png",
             caption="../report/prediction_intervals_figure.rst",

@@ -8,9 +8,7 @@ rule tune_residual:
     output:
         best=f"{RESULTS}/tuning/best_params.json",
         trials=f"{RESULTS}/tuning/trials.csv",
-        table=report(
-            f"{TABLES}/table4_hyperparameters.csv", caption="../report/table4.rst", category="3. Residual model"
-        ),
+        table=f"{TABLES}/table4_hyperparameters.csv",
     log:
         log_of("tune_residual"),
     benchmark:
@@ -63,7 +61,7 @@ rule table3:
     input:
         table=f"{RESULTS}/residuals/cv_filtered.csv",
     output:
-        table=report(f"{TABLES}/table3_residual_cv.csv", caption="../report/table3.rst", category="3. Residual model"),
+        table=f"{TABLES}/table3_residual_cv.csv",
     log:
         log_of("table3"),
     benchmark:
