@@ -89,7 +89,10 @@ def main() -> None:
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     table = run(args.per_family, args.seed, args.demo_kinds, args.jobs)
-    text = "table: out-of-support truth-RMSE on held-out parts, median over plants (mm)\n\n" + summary(table)
+    text = (
+        "table: out-of-support truth-RMSE on held-out parts (the odd blocks, where every model has an honest "
+        "prediction: the same parts for all), median over plants (mm)\n\n" + summary(table)
+    )
     print("\n" + text)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
