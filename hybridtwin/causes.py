@@ -16,6 +16,35 @@ import numpy as np
 import pandas as pd
 
 KINDS = ("input", "log", "time", "group", "interaction")  # model input, other number, timestamp, id, input pair
+
+# a column's unit read from the last part of its name, when the config gives none (units.inputs)
+NAME_UNITS = {
+    "c": "°C",
+    "degc": "°C",
+    "k": "K",
+    "mm": "mm",
+    "um": "µm",
+    "mpa": "MPa",
+    "gpa": "GPa",
+    "kn": "kN",
+    "bar": "bar",
+    "pct": "%",
+    "percent": "%",
+    "deg": "°",
+    "s": "s",
+    "h": "h",
+    "spm": "strokes/min",
+}
+
+
+def unit_of(column: str, configured: dict | None = None) -> str:
+    """The unit of a number column: the configured one, else from its name (die_temp_c: °C, shim20_mm: mm,
+    rp02_mpa: MPa), else ''."""
+    if configured and column in configured:
+        return configured[column]
+    return NAME_UNITS.get(str(column).rsplit("_", 1)[-1].lower(), "") if "_" in str(column) else ""
+
+
 MAX_UNPARSED_STAMPS = 0.01  # a text column is read as timestamps when at most this share fails to parse
 
 
@@ -62,6 +91,14 @@ class Cause:
         if self.kind == "group":
             return frame[self.columns[0]].astype(str).to_numpy()
         return frame[self.columns[0]].to_numpy(float)
+
+    def unit(self, configured: dict | None = None) -> str:
+        """The unit of the values a form is fitted on ('' for ids and input pairs)."""
+        if self.kind == "time":
+            return "h"
+        if self.kind in ("group", "interaction"):
+            return ""
+        return unit_of(self.columns[0], configured)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "kind": self.kind, "columns": list(self.columns), "origin": self.origin}

@@ -113,12 +113,16 @@ class Settings:
     n_blocks: int = 200
     n_jobs: int = 1
     unit: str = "mm"  # of the target: the causes' descriptions give effects in it (config units.target)
+    input_units: tuple[tuple[str, str], ...] = ()  # (column, unit) pairs of config units.inputs
 
     @classmethod
-    def from_config(cls, config: dict | None, folds: int, seed: int, unit: str, n_jobs: int = 1) -> "Settings":
+    def from_config(
+        cls, config: dict | None, folds: int, seed: int, unit: str, n_jobs: int = 1, input_units: dict | None = None
+    ) -> "Settings":
         config = dict(config or {})
         config["exclude"] = tuple(config.get("exclude", ()))
-        return cls(folds=folds, seed=seed, unit=unit, n_jobs=n_jobs, **config)
+        units = tuple(sorted((input_units or {}).items()))
+        return cls(folds=folds, seed=seed, unit=unit, n_jobs=n_jobs, input_units=units, **config)
 
 
 @dataclass
@@ -745,7 +749,9 @@ def _table(marginal, conditional, selected, aliases, explained_by, proxies, skip
                 "p_value": p_value,
                 "significant": significant,
                 "selected": name in chosen,
-                "description": form.describe(name, rules.settings.unit),
+                "description": form.describe(
+                    name, rules.settings.unit, fit.candidate.cause.unit(dict(rules.settings.input_units))
+                ),
                 "note": note,
             }
         )

@@ -52,8 +52,14 @@ class Form:
     def to_dict(self) -> dict:
         return {"form": self.name, **{k: json_safe(v) for k, v in vars(self).items()}}
 
-    def describe(self, column: str, unit: str) -> str:
+    def describe(self, column: str, unit: str, x_unit: str = "") -> str:
+        """The effect in words: ``unit`` is the target's, ``x_unit`` the cause's ('' when it has none)."""
         raise NotImplementedError
+
+
+def _with(value: float, unit: str, spec: str = ".4g") -> str:
+    """A number with its unit ('50.05 °C'), or bare when the unit is not known."""
+    return f"{value:{spec}} {unit}" if unit else f"{value:{spec}}"
 
 
 class Linear(Form):
@@ -66,8 +72,8 @@ class Linear(Form):
     def _predict(self, x):
         return self.intercept + self.slope * np.asarray(x, float)
 
-    def describe(self, column, unit):
-        return f"linear: {self.slope:+.4g} {unit} per unit of {column}"
+    def describe(self, column, unit, x_unit=""):
+        return f"linear: {self.slope:+.4g} {unit} per {x_unit or 'unit'} of {column}"
 
 
 class Quadratic(Form):
@@ -86,9 +92,9 @@ class Quadratic(Form):
         clipped = np.clip(np.asarray(x, float), self.low, self.high)
         return np.polyval(self.coefficients, clipped - self.center)
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         a, b, _ = self.coefficients
-        return f"quadratic in {column}, vertex at {self.center - b / (2 * a):.4g}" if a else "quadratic"
+        return f"quadratic in {column}, vertex at {_with(self.center - b / (2 * a), x_unit)}" if a else "quadratic"
 
 
 class Sigmoid(Form):
@@ -140,10 +146,10 @@ class Sigmoid(Form):
     def _predict(self, x):
         return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         return (
-            f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {self.threshold:.4g} "
-            f"(10-90% over {SIGMOID_SPAN * self.width:.3g})"
+            f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {_with(self.threshold, x_unit)} "
+            f"(10-90% over {_with(SIGMOID_SPAN * self.width, x_unit, '.3g')})"
         )
 
 
@@ -174,8 +180,8 @@ class Step(Form):
     def _predict(self, x):
         return self.low + self.jump * (np.asarray(x, float) >= self.threshold)
 
-    def describe(self, column, unit):
-        return f"step of {self.jump:+.3g} {unit} at {column} = {self.threshold:.4g}"
+    def describe(self, column, unit, x_unit=""):
+        return f"step of {self.jump:+.3g} {unit} at {column} = {_with(self.threshold, x_unit)}"
 
 
 class Monotone(Form):
@@ -199,9 +205,10 @@ class Monotone(Form):
     def _predict(self, x):
         return np.interp(np.asarray(x, float), self.knots_x, self.knots_y)
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         change = self.knots_y[-1] - self.knots_y[0]
-        return f"monotone trend of {change:+.3g} {unit} over {column} {self.knots_x[0]:.4g}..{self.knots_x[-1]:.4g}"
+        span = f"{self.knots_x[0]:.4g}..{_with(self.knots_x[-1], x_unit)}"
+        return f"monotone trend of {change:+.3g} {unit} over {column} {span}"
 
 
 class Group(Form):
@@ -228,7 +235,7 @@ class Group(Form):
         values = np.array([self.offsets.get(level, self.overall) for level in levels.tolist()], float)
         return values[codes] if len(levels) else np.empty(0)
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         values = np.array(list(self.offsets.values()))
         return f"offsets per {column} level: {len(values)} levels, sd {values.std():.3g} {unit}"
 
@@ -252,7 +259,7 @@ class Product(Form):
         a, b = np.asarray(x, float).T
         return self._design(a, b) @ np.asarray(self.coefficients, float)
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
 
 
@@ -267,7 +274,7 @@ class Additive(Product):
     def _design(self, a, b):
         return super()._design(a, b)[:, :3]
 
-    def describe(self, column, unit):
+    def describe(self, column, unit, x_unit=""):
         first, second = column.split("*")
         return (
             f"additive: {self.coefficients[1]:+.4g} {unit} per unit of {first}, "

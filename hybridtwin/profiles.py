@@ -19,7 +19,15 @@ def partial_residual(result: Diagnosis, y: np.ndarray, index: int) -> np.ndarray
     return y - sum((f.form.predict(f.candidate.values) for f in others), np.zeros_like(y))
 
 
-def cause_profile(result: Diagnosis, name: str, unit: str, seed: int = 0, n_bins: int = 20, n_boot: int = 30) -> dict:
+def cause_profile(
+    result: Diagnosis,
+    name: str,
+    unit: str,
+    seed: int = 0,
+    n_bins: int = 20,
+    n_boot: int = 30,
+    input_units: dict | None = None,
+) -> dict:
     """Data for a cause's figure: binned residual, the fitted form on a grid and a bootstrap 95% band.
 
     A chosen cause is shown against its partial residual (the other chosen terms
@@ -38,7 +46,7 @@ def cause_profile(result: Diagnosis, name: str, unit: str, seed: int = 0, n_bins
         "name": name,
         "kind": candidate.kind,
         "form": form.name,
-        "description": form.describe(name, unit),
+        "description": form.describe(name, unit, candidate.cause.unit(input_units)),
         "selected": name in chosen,
         "unit": unit,
     }
@@ -77,11 +85,17 @@ def cause_profile(result: Diagnosis, name: str, unit: str, seed: int = 0, n_bins
         curve=curve,
         band_low=low,
         band_high=high,
-        xlabel=name if candidate.kind != "interaction" else f"fitted interaction term {name} [{unit}]",
+        xlabel=_axis(name, candidate.cause.unit(input_units))
+        if candidate.kind != "interaction"
+        else f"fitted interaction term {name} [{unit}]",
     )
     if candidate.kind == "time":
         profile["xlabel"] = f"{name}: hours since {candidate.origin}"
     return profile
+
+
+def _axis(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
 
 
 class Identity(forms.Form):

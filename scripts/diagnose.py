@@ -17,7 +17,7 @@ def main(snakemake):
         residuals.loc[inside, "pred_surrogate_std"], files.read_json(snakemake.input.surrogate)["noise_std"]
     )
     settings = diagnosis.Settings.from_config(
-        p.settings, folds=p.folds, seed=p.seed, unit=p.unit, n_jobs=snakemake.threads
+        p.settings, folds=p.folds, seed=p.seed, unit=p.unit, n_jobs=snakemake.threads, input_units=p.input_units
     )
     result = diagnosis.diagnose(
         production.loc[inside].drop(columns=[p.target]),
@@ -36,7 +36,7 @@ def main(snakemake):
             files.save_figure(plots.placeholder(f"only {len(result.table)} candidate cause(s)"), path)
             continue
         row = result.table.iloc[rank - 1]
-        profile = profiles.cause_profile(result, row["cause"], p.unit, seed=p.seed)
+        profile = profiles.cause_profile(result, row["cause"], p.unit, seed=p.seed, input_units=p.input_units)
         files.save_figure(plots.cause_profile(profile, rank, bool(row["significant"])), path)
 
 

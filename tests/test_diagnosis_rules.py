@@ -100,6 +100,10 @@ def test_the_causes_are_described_in_the_targets_unit():
     described = "linear: +0.3026 deg per unit of angle"
     assert result.table.loc[0, "description"] == described
     assert diagnosis.summary_dict(result)["selected"][0]["description"] == described
+    # and the cause in its own unit, from the config (units.inputs)
+    settings = Settings.from_config({}, folds=5, seed=0, unit="deg", input_units={"angle": "°"})
+    result = diagnosis.diagnose(pd.DataFrame({"angle": angle}), y, ["angle"], [], settings, surrogate_std=0.2)
+    assert result.table.loc[0, "description"] == "linear: +0.3026 deg per ° of angle"
 
 
 def _coil_plant(explained: float, seed: int = 1):

@@ -190,3 +190,17 @@ def test_backfitting_recovers_two_correlated_slopes():
     np.testing.assert_allclose(sum(m.predict(v) - c for m, v, c in zip(models, [a, b], means)), y - y.mean(), atol=1e-2)
     one_pass, _ = forms.backfit([a, b], ["linear", "linear"], y, passes=1)
     assert abs(one_pass[0].slope - 2.0) > 0.5  # what a single pass would have given
+
+
+def test_a_causes_unit_comes_from_the_config_or_its_name_and_reaches_the_description():
+    from hybridtwin.causes import Cause, unit_of
+
+    assert unit_of("die_temp_c") == "°C" and unit_of("shim20_mm") == "mm" and unit_of("rp02_mpa") == "MPa"
+    assert unit_of("coil") == "" and unit_of("die_temp", {"die_temp": "°F"}) == "°F"
+    assert Cause("t", "time", ("timestamp",)).unit() == "h" and Cause("c", "group", ("coil_c",)).unit() == ""
+    assert Cause("a*b", "interaction", ("a_mm", "b_mm")).unit() == ""
+    step = forms.Step().fit(np.array([40.0, 41.0, 50.0, 51.0] * 10), np.array([0.0, 0.0, 5.0, 5.0] * 10))
+    assert step.describe("die_temp_c", "mm", "°C") == "step of +5 mm at die_temp_c = 45.5 °C"
+    assert step.describe("die_temp_c", "mm") == "step of +5 mm at die_temp_c = 45.5"
+    line = forms.Linear().fit(np.array([0.0, 1.0, 2.0]), np.array([0.0, 2.0, 4.0]))
+    assert line.describe("rp02_mpa", "mm", "MPa") == "linear: +2 mm per MPa of rp02_mpa"

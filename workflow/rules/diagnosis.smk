@@ -31,6 +31,7 @@ rule diagnose:
         seed=SEED,
         settings={k: v for k, v in config["diagnosis"].items() if k != "n_figures"},
         unit=UNIT,
+        input_units=config["units"]["inputs"],
     script:
         "../../scripts/diagnose.py"
 
