@@ -336,12 +336,58 @@ def require_columns(
 
 
 def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: str | dict) -> pd.DataFrame:
-    """Read a CSV and convert the configured numeric columns; other columns stay as text."""
+    """Read a CSV and convert the configured numeric columns; other columns stay as text.
+
+    A clean file is read in one pass of pandas' C parser; any other goes through the careful reader,
+    which finds the first problem and names its file, column and row.
+    """
+    clean = _read_clean(path, numeric, fmt)
+    if clean is not None:
+        return clean
     frame = read_csv(path, role, fmt)
     where = f"{role} file {str(path)!r}"
     require_columns(frame, numeric, where, config_key, fmt)
     for column in numeric:
         frame[column] = numeric_column(frame, column, where, fmt)
+    return frame
+
+
+def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None:
+    """The table, when the file is clean: UTF-8, a rectangle with a unique header and no blank line, every
+    configured column a finite number in every row. None otherwise (the careful reader then says why).
+
+    What it returns is what the careful reader returns for the same file: text columns as text,
+    numbers parsed exactly (round trip), each row indexed by its place in the file.
+    """
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            first = handle.readline()
+        header = next(csv.reader([first], delimiter=fmt.sep, skipinitialspace=True))
+        names = [name.strip() for name in header]
+        if any(name == "" for name in names) or len(set(names)) < len(names) or not set(numeric) <= set(names):
+            return None
+        frame = pd.read_csv(
+            path,
+            sep=fmt.sep,
+            decimal=fmt.decimal,
+            header=0,
+            names=names,
+            dtype={name: float if name in numeric else str for name in names},
+            na_filter=False,
+            skip_blank_lines=False,
+            skipinitialspace=True,
+            encoding="utf-8-sig",
+            float_precision="round_trip",
+            engine="c",
+        )
+    except (OSError, ValueError, UnicodeDecodeError, StopIteration, csv.Error, pd.errors.ParserError):
+        return None
+    if frame.empty or not isinstance(frame.index, pd.RangeIndex):  # a wide first row became an index
+        return None
+    if frame.isna().to_numpy().any():  # a short row, or a number that reads as NaN
+        return None
+    if not np.isfinite(frame[numeric].to_numpy(float)).all():
+        return None
     return frame
 
 
@@ -409,15 +455,23 @@ def load_whatif(path, inputs, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
 def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.DataFrame:
     """Log columns (counters, temperatures) that read as numbers become numbers; the rest stay text."""
     for column in frame.columns:
-        if column in done:
+        if column in done or not _all_numbers(frame[column].iloc[:100], fmt):  # a text column shows it early
             continue
-        text = frame[column].astype(str).str.strip()
-        if fmt.decimal != ".":
-            text = text.str.replace(fmt.decimal, ".", regex=False)
-        values = pd.to_numeric(text, errors="coerce")
-        if values.notna().all() and np.isfinite(values.to_numpy(float)).all():
-            frame[column] = values
+        if _all_numbers(frame[column], fmt):
+            frame[column] = _numbers(frame[column], fmt)
     return frame
+
+
+def _numbers(series: pd.Series, fmt: CsvFormat) -> pd.Series:
+    text = series.astype(str).str.strip()
+    if fmt.decimal != ".":
+        text = text.str.replace(fmt.decimal, ".", regex=False)
+    return pd.to_numeric(text, errors="coerce")
+
+
+def _all_numbers(series: pd.Series, fmt: CsvFormat) -> bool:
+    values = _numbers(series, fmt)
+    return bool(values.notna().all() and np.isfinite(values.to_numpy(float)).all())
 
 
 def range_report(reference: pd.DataFrame, frame: pd.DataFrame, inputs) -> pd.DataFrame:
