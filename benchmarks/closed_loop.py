@@ -115,6 +115,12 @@ def run_extension(workdir: Path, config: dict, points: np.ndarray, inputs: list[
         }
 
 
+def tuning_seconds(rule_seconds: dict) -> float:
+    """The tuning's wall time: its workers' (rule tune_worker, one at a time here) and the rule that reads the study."""
+    parts = [seconds for rule, seconds in rule_seconds.items() if rule.startswith(("tune_worker", "tune_residual"))]
+    return sum(parts) if parts else float("nan")
+
+
 def best_so_far(trials_csv: Path) -> np.ndarray:
     """The study's best CV RMSE after each trial, in trial order (pruned trials count, without a value)."""
     trials = pd.read_csv(trials_csv).sort_values("trial")
@@ -196,13 +202,14 @@ def main() -> None:
         "trials, same seed), warm against cold start:\n"
     )
     print(
-        "| tuning study | best CV RMSE | trials to reach the cold study's best | tune_residual wall time [s] "
-        "| workflow rerun wall time [s] |\n|---|---:|---:|---:|---:|"
+        "| tuning study | best CV RMSE | trials to reach the cold study's best "
+        "| tuning wall time (tune_worker, tune_residual) [s] | workflow rerun wall time [s] |\n"
+        "|---|---:|---:|---:|---:|"
     )
     for name, run in (("cold (`tuning.warm_start: 0`)", cold), ("warm (the earlier study's best trials first)", warm)):
         print(
             f"| {name} | {run['best_so_far'][-1]:.4f} | {trials_to_reach(run['best_so_far'], cold['best_so_far'][-1])} "
-            f"| {run['rule_seconds'].get('tune_residual', float('nan')):.1f} | {run['wall_seconds']:.0f} |"
+            f"| {tuning_seconds(run['rule_seconds']):.1f} | {run['wall_seconds']:.0f} |"
         )
 
 

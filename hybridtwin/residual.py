@@ -110,11 +110,14 @@ def tune(
     study_prefix: str = "residual",
     n_jobs: int = 1,
     warm_start: int = 0,
+    worker: int = 0,
 ) -> optuna.Study:
     """Run (or resume) the TPE study until it holds ``n_trials`` finished trials.
 
     ``warm_start``: a new study (new data, say an enriched DoE) first tries the best ``warm_start``
     parameter sets of the latest earlier study in the same storage, instead of starting from scratch.
+    ``worker``: one of several processes sharing the study; each samples with its own seed (the same
+    seed would have them try the same parameters), and only worker 0 enqueues the warm start.
     """
     space = space or DEFAULT_SEARCH_SPACE
     X, y = np.asarray(X, float), np.asarray(y, float)
@@ -124,11 +127,11 @@ def tune(
         study_name=name,
         storage=opened,
         direction="minimize",
-        sampler=optuna.samplers.TPESampler(seed=seed),
+        sampler=optuna.samplers.TPESampler(seed=seed + worker),
         load_if_exists=True,
         pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
     )
-    if warm_start and not study.trials:
+    if warm_start and worker == 0 and not study.trials:
         for params in earlier_best(opened, name, study_prefix, space, warm_start):
             study.enqueue_trial(params)
     done = _complete(study)
@@ -136,7 +139,7 @@ def tune(
         log.info("resuming study %s with %d finished trial(s)", name, done)
     if study.trials:
         # a sampler restarted with the same seed would replay the first trials' parameters
-        study.sampler = optuna.samplers.TPESampler(seed=seed + len(study.trials))
+        study.sampler = optuna.samplers.TPESampler(seed=seed + worker + len(study.trials))
 
     def objective(trial: optuna.Trial) -> float:
         def report(rows):

@@ -1,4 +1,9 @@
-"""Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE."""
+"""Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE.
+
+Rule tune_worker runs trials of the shared study (``tuning.workers`` of them at once, each its own
+job); rule tune_residual reads the finished study (running any trial a worker left undone) and
+writes the best parameters, the trials and Table 4.
+"""
 
 import logging
 
@@ -8,22 +13,28 @@ from hybridtwin.runner import run
 
 
 def main(snakemake):
+    p = snakemake.params
     production = read_checked(snakemake.input.production)
     residuals = read_checked(snakemake.input.residuals)
     inside = in_support(residuals)
-    space = residual.search_space(snakemake.params.search_space)
+    space = residual.search_space(p.search_space)
+    worker = int(snakemake.wildcards.get("worker", 0))
     study = residual.tune(
-        production.loc[inside, snakemake.params.inputs],
+        production.loc[inside, p.inputs],
         residuals.loc[inside, "residual_approx"],
-        n_trials=snakemake.params.n_trials,
-        n_folds=snakemake.params.folds,
-        seed=snakemake.params.seed,
-        storage=snakemake.params.storage,
+        n_trials=p.n_trials,
+        n_folds=p.folds,
+        seed=p.seed,
+        storage=p.storage,
         space=space,
         n_jobs=snakemake.threads,
-        warm_start=snakemake.params.warm_start,
+        warm_start=p.warm_start,
+        worker=worker,
     )
-    best = residual.best_params(study, space, snakemake.params.n_trials)
+    if "done" in snakemake.output.keys():  # a worker: its share of the study is done
+        files.write_json({"study": study.study_name, "worker": worker}, snakemake.output.done)
+        return
+    best = residual.best_params(study, space, p.n_trials)
     logging.info("study %s: best parameters %s", study.study_name, best)
     files.write_json({"study": study.study_name, "params": best}, snakemake.output.best)
     files.write_csv(residual.hyperparameter_table(best, space), snakemake.output.table)

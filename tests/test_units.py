@@ -599,6 +599,35 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
     assert all("best so far" in line for line in lines)
 
 
+def test_tuning_workers_sample_apart_and_only_the_first_takes_the_warm_start(tmp_path):
+    rng = np.random.default_rng(0)
+    X = rng.random((200, 3))
+    y = X[:, 0] + rng.normal(0, 0.1, 200)
+    space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
+
+    def first_params(worker, storage, data=(X, y), warm_start=0):
+        study = residual.tune(
+            *data,
+            n_trials=1,
+            n_folds=3,
+            seed=1,
+            storage=str(storage),
+            space=space,
+            worker=worker,
+            warm_start=warm_start,
+        )
+        return study.trials[0].params
+
+    # the same study's seed in two workers would try the same parameters first
+    assert first_params(0, tmp_path / "a.log") != first_params(1, tmp_path / "b.log")
+    assert first_params(0, tmp_path / "a.log") == first_params(0, tmp_path / "c.log")
+    # on new data, worker 0 starts from the earlier study's best; worker 1 leaves that to it
+    earlier = first_params(0, tmp_path / "a.log")
+    new_data = (X, y + 0.01)
+    assert first_params(0, tmp_path / "a.log", new_data, warm_start=1) == earlier
+    assert first_params(1, tmp_path / "c.log", new_data, warm_start=1) != first_params(0, tmp_path / "c.log")
+
+
 @pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
 def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
     from hybridtwin import files

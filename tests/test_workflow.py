@@ -330,6 +330,17 @@ def test_two_tuning_workers_lose_no_trials(tmp_path):
     assert all(t.state in finished for t in trials), "every trial of both workers finished"
 
 
+def test_the_tuning_runs_as_the_configured_number_of_worker_jobs(tmp_path):
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config.setdefault("tuning", {})["workers"] = 3
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    dry = snakemake(tmp_path, "-n", config=path)
+    workers = re.findall(r"^rule tune_worker:\n(?:    .*\n)*?    output: (\S+)", dry.stdout, re.M)
+    assert sorted(Path(w).name for w in workers) == ["worker_0.json", "worker_1.json", "worker_2.json"]
+    assert len(re.findall(r"^rule tune_residual:", dry.stdout, re.M)) == 1
+
+
 def planned_rules(workdir, config) -> set[str]:
     """The rules a dry run would run."""
     dry = snakemake(workdir, "-n", config=config)

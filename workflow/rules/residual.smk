@@ -1,10 +1,46 @@
 # The XGBoost residual model: Optuna tuning, CV, final fits (filtered and unfiltered training sets).
 
 
+# what a tuning job needs; the workers and the rule that reads their study share it
+TUNING_PARAMS = {
+    "code": PACKAGE_CODE,
+    "inputs": INPUTS,
+    "folds": FOLDS,
+    "seed": SEED,
+    "n_trials": config["tuning"]["n_trials"],
+    "warm_start": config["tuning"]["warm_start"],
+    "search_space": config["tuning"]["search_space"],
+    # the study journal lives outside the outputs, so a killed run resumes it
+    "storage": config["tuning"]["storage"] or f"{RESULTS}/optuna/journal.log",
+}
+
+
+rule tune_worker:
+    input:
+        production=CHECKED["production"],
+        residuals=rules.residuals.output.residuals,
+    output:
+        done=f"{RESULTS}/tuning/worker_{{worker}}.json",
+    log:
+        log_of("tune_worker", "_{worker}"),
+    benchmark:
+        benchmark_of("tune_worker", "_{worker}")
+    wildcard_constraints:
+        worker=r"\d+",
+    conda:
+        "../envs/hybridtwin.yaml"
+    threads: 2
+    params:
+        **TUNING_PARAMS,
+    script:
+        "../../scripts/tune_residual.py"
+
+
 rule tune_residual:
     input:
         production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
+        workers=expand(f"{RESULTS}/tuning/worker_{{worker}}.json", worker=range(config["tuning"]["workers"])),
     output:
         best=f"{RESULTS}/tuning/best_params.json",
         trials=f"{RESULTS}/tuning/trials.csv",
@@ -15,17 +51,8 @@ rule tune_residual:
         benchmark_of("tune_residual")
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
     params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-        folds=FOLDS,
-        seed=SEED,
-        n_trials=config["tuning"]["n_trials"],
-        warm_start=config["tuning"]["warm_start"],
-        search_space=config["tuning"]["search_space"],
-        # the study journal lives outside the outputs, so a killed run resumes it
-        storage=config["tuning"]["storage"] or f"{RESULTS}/optuna/journal.log",
+        **TUNING_PARAMS,
     script:
         "../../scripts/tune_residual.py"
 
