@@ -9,6 +9,14 @@ from sklearn.model_selection import KFold
 
 from .metrics import scores
 
+
+def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
+    """Seeded subset of row positions (all rows when there are fewer), in order."""
+    if n_rows <= size:
+        return np.arange(n_rows)
+    return np.sort(np.random.default_rng(seed).choice(n_rows, size, replace=False))
+
+
 CV_METRICS = ("rmse", "mae", "bias", "r2")  # the column order of the CV tables
 
 

@@ -67,6 +67,19 @@ def _gain(nearest: np.ndarray, candidate_distance: np.ndarray, threshold: float,
     return brought.sum(axis=0), shortened.sum(axis=0)
 
 
+GAIN_ROWS = 100_000  # parts per chunk: the (parts x candidates) arrays stay near a gigabyte at any plant size
+
+
+def _chunked_gain(z_out, nearest, z_candidates, threshold: float, weights):
+    """``_gain`` summed over chunks of parts (a single chunk up to GAIN_ROWS parts)."""
+    count, shortened = np.zeros(len(z_candidates)), np.zeros(len(z_candidates))
+    for start in range(0, len(z_out), GAIN_ROWS):
+        rows = slice(start, start + GAIN_ROWS)
+        part = _gain(nearest[rows], cdist(z_out[rows], z_candidates), threshold, weights[rows])
+        count, shortened = count + part[0], shortened + part[1]
+    return count, shortened
+
+
 @dataclass
 class Proposal:
     points: np.ndarray  # (n, inputs) in the DoE's units
@@ -114,8 +127,7 @@ def propose(
         z_out = gate.standardizer_.transform(production[out_rows])
         nearest = _nearest(gate.reference_, z_out, k)
         z_candidates = gate.standardizer_.transform(candidates[available])
-        distances = cdist(z_out, z_candidates)
-        count, shortened = _gain(nearest, distances, threshold, weights[out_rows])
+        count, shortened = _chunked_gain(z_out, nearest, z_candidates, threshold, weights[out_rows])
         order = np.lexsort((-shortened * uncertainty[available], -count))
         pick = np.flatnonzero(available)[order[0]]
         available[pick] = False

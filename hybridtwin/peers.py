@@ -21,6 +21,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
+from .crossval import training_subset
 from .files import in_support
 from .gate import (
     DoEStandardizer,
@@ -32,13 +33,6 @@ from .gate import (
 from .surrogate import GPRSurrogate
 
 BATCH_ROWS = 500  # rows predicted at a time: a GP's cross-covariance with its training rows fits in cache
-
-
-def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
-    """Seeded subset of row positions (all rows when there are fewer), in order."""
-    if n_rows <= size:
-        return np.arange(n_rows)
-    return np.sort(np.random.default_rng(seed).choice(n_rows, size, replace=False))
 
 
 def _batched(predict, X: np.ndarray) -> np.ndarray:
@@ -216,7 +210,8 @@ def fit_peer(
     settings: dict,
     seed: int,
 ) -> PeerFit:
-    """Fit one peer on the DoE and the in-support parts; predict every production row.
+    """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
+    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere).
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
     residuals rule's table).
@@ -236,7 +231,12 @@ def fit_peer(
     else:
         raise ValueError(f"unknown peer {kind!r}; one of {', '.join(PEERS)}")
     seconds = time.perf_counter() - start
-    final = peer_prediction(kind, model, production[inputs], residuals["pred_surrogate"].to_numpy(float))
+    # a peer predicts row by row against all its training points: on a large log, a seeded sample of rows
+    predicted = training_subset(len(production), settings.get("max_predicted", len(production)), seed + 2)
+    final = np.full(len(production), np.nan)
+    final[predicted] = peer_prediction(
+        kind, model, production.iloc[predicted][inputs], residuals["pred_surrogate"].to_numpy(float)[predicted]
+    )
     honest = final.copy()
     honest[inside[trained]] = np.nan
     return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds, int(len(trained)))

@@ -18,7 +18,7 @@ import optuna
 import pandas as pd
 import xgboost as xgb
 
-from .crossval import cross_validate
+from .crossval import cross_validate, training_subset
 
 log = logging.getLogger(__name__)
 
@@ -267,8 +267,21 @@ def search_space(overrides: dict | None) -> dict[str, dict]:
     return space
 
 
-def hyperparameter_table(params: dict, space: dict) -> pd.DataFrame:
-    """Table 4: the chosen hyperparameters with the searched ranges."""
+def tuning_rows(in_support, max_rows: int, seed: int) -> tuple[np.ndarray, str]:
+    """The parts the study tunes on (every in-support part, or a seeded sample of ``max_rows``), and how
+    Table 4 says so."""
+    inside = np.flatnonzero(np.asarray(in_support, bool))
+    rows = inside[training_subset(len(inside), max_rows, seed)]
+    if len(rows) == len(inside):
+        return rows, f"K-fold CV RMSE on the {len(inside):,} in-support production parts"
+    return rows, (
+        f"K-fold CV RMSE on a seeded sample of {len(rows):,} of the {len(inside):,} in-support production parts "
+        "(tuning.max_rows)"
+    )
+
+
+def hyperparameter_table(params: dict, space: dict, tuned_on: str = "") -> pd.DataFrame:
+    """Table 4: the chosen hyperparameters with the searched ranges, and the data they were tuned on."""
     return pd.DataFrame(
         [
             {
@@ -278,6 +291,7 @@ def hyperparameter_table(params: dict, space: dict) -> pd.DataFrame:
                 "search_low": space[name]["low"],
                 "search_high": space[name]["high"],
                 "log_scale": bool(space[name].get("log", False)),
+                "tuned_on": tuned_on,
             }
             for name in space
         ]

@@ -15,6 +15,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from .gate import DoEStandardizer, input_names, remember_inputs, restore_inputs
 
+PREDICT_ROWS = 100_000  # rows per prediction chunk
+
 
 class GPRSurrogate(RegressorMixin, BaseEstimator):
     """Inputs are standardized with the statistics of the training (DoE) rows."""
@@ -53,8 +55,17 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X, return_std: bool = False):
+        """In chunks of PREDICT_ROWS rows: the kernel's (rows x DoE runs) temporaries stay small on a large log."""
         check_is_fitted(self, "gpr_")
-        return self.gpr_.predict(self.standardizer_.transform(X), return_std=return_std)
+        Z = self.standardizer_.transform(X)
+        if len(Z) <= PREDICT_ROWS:
+            return self.gpr_.predict(Z, return_std=return_std)
+        parts = [
+            self.gpr_.predict(Z[s : s + PREDICT_ROWS], return_std=return_std) for s in range(0, len(Z), PREDICT_ROWS)
+        ]
+        if return_std:
+            return np.concatenate([mean for mean, _ in parts]), np.concatenate([std for _, std in parts])
+        return np.concatenate(parts)
 
     @property
     def noise_std_(self) -> float:

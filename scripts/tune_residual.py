@@ -16,12 +16,12 @@ def main(snakemake):
     p = snakemake.params
     production = read_checked(snakemake.input.production)
     residuals = read_checked(snakemake.input.residuals)
-    inside = in_support(residuals)
+    rows, tuned_on = residual.tuning_rows(in_support(residuals), p.max_rows, p.seed)
     space = residual.search_space(p.search_space)
     worker = int(snakemake.wildcards.get("worker", 0))
     study = residual.tune(
-        production.loc[inside, p.inputs],
-        residuals.loc[inside, "residual_approx"],
+        production.iloc[rows][p.inputs],
+        residuals.iloc[rows]["residual_approx"],
         n_trials=p.n_trials,
         n_folds=p.folds,
         seed=p.seed,
@@ -37,7 +37,7 @@ def main(snakemake):
     best = residual.best_params(study, space, p.n_trials)
     logging.info("study %s: best parameters %s", study.study_name, best)
     files.write_json({"study": study.study_name, "params": best}, snakemake.output.best)
-    files.write_csv(residual.hyperparameter_table(best, space), snakemake.output.table)
+    files.write_csv(residual.hyperparameter_table(best, space, tuned_on), snakemake.output.table)
     files.write_csv(residual.trials_table(study), snakemake.output.trials)
 
 

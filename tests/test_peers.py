@@ -71,3 +71,33 @@ def test_a_peer_is_never_scored_on_the_parts_it_trained_on():
     assert len(fitted.calibration["gp_discrepancy"]["in_support"]) == int(np.sum(calibration & ~trained_on))
     lower, upper = fitted.interval("gp_discrepancy", peer, region, 0.9)
     assert np.isnan(lower[trained_on]).all() and np.isfinite(lower[~trained_on]).all()
+
+
+def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_never_its_training_parts(case):
+    parts = case["parts"]
+    surrogate = simulator(parts.to_numpy())
+    residuals = pd.DataFrame(
+        {
+            "measured": case["y_parts"],
+            "pred_surrogate": surrogate,
+            "residual_approx": case["y_parts"] - surrogate,
+            "in_support": np.arange(len(parts)) % 2 == 0,
+        }
+    )
+    doe = case["doe"].assign(y=case["y_doe"])
+    settings = {"gp_n_hyper": 100, "gp_n_fit": 200, "max_predicted": 1000}
+    fit = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
+    predicted = np.isfinite(fit.production["pred_gp_discrepancy"].to_numpy())
+    assert predicted.sum() == 1000
+    again = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
+    assert np.array_equal(np.isfinite(again.production["pred_gp_discrepancy"]), predicted)  # seeded
+    honest = np.isfinite(fit.production["pred_gp_discrepancy_oof"].to_numpy())
+    assert (honest <= predicted).all() and honest.sum() < predicted.sum()  # nor on its training parts
+    # without a limit every row is predicted, and the sample's values are the same
+    full = peers.fit_peer(
+        "gp_discrepancy", doe, parts, residuals, COLUMNS, "y", {**settings, "max_predicted": 10**6}, 0
+    )
+    assert np.isfinite(full.production["pred_gp_discrepancy"]).all()
+    np.testing.assert_allclose(
+        full.production["pred_gp_discrepancy"].to_numpy()[predicted], fit.production["pred_gp_discrepancy"][predicted]
+    )

@@ -365,6 +365,18 @@ def test_hyperparameter_table_has_table4_parameters():
     assert table.set_index("xgboost_name").loc["max_depth", "value"] == 2
 
 
+def test_the_study_tunes_on_a_sample_of_the_support_only_beyond_max_rows_and_says_so():
+    inside = np.zeros(1000, bool)
+    inside[::2] = True  # 500 in-support parts
+    rows, said = residual.tuning_rows(inside, 1000, seed=3)
+    np.testing.assert_array_equal(rows, np.flatnonzero(inside))
+    assert said == "K-fold CV RMSE on the 500 in-support production parts"
+    rows, said = residual.tuning_rows(inside, 200, seed=3)
+    assert len(rows) == 200 and inside[rows].all() and np.all(np.diff(rows) > 0)
+    np.testing.assert_array_equal(rows, residual.tuning_rows(inside, 200, seed=3)[0])  # seeded
+    assert "a seeded sample of 200 of the 500 in-support" in said and "tuning.max_rows" in said
+
+
 def test_training_rows():
     inside = [True, False, True, True, False]
     np.testing.assert_array_equal(residual.training_rows(inside, "filtered"), [0, 2, 3])

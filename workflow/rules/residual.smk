@@ -8,6 +8,7 @@ TUNING_PARAMS = {
     "folds": FOLDS,
     "seed": SEED,
     "n_trials": config["tuning"]["n_trials"],
+    "max_rows": config["tuning"]["max_rows"],
     "warm_start": config["tuning"]["warm_start"],
     "search_space": config["tuning"]["search_space"],
     # the study journal lives outside the outputs, so a killed run resumes it
