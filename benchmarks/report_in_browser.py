@@ -158,6 +158,11 @@ def main() -> int:
                 + (f"; missing: {missing[:3]}" if missing else ""),
                 flush=True,
             )
+        made = sorted(path.stem for path in (results_dir / "report").glob("*.html"))
+        checked = sorted(report_pages(Path("workflow/rules/report.smk")))
+        if made != checked:  # a page the list above missed is a page nobody checked
+            print(f"pages written {made}, pages checked {checked}")
+            missing_any = True
     finally:
         browser.close()
     return 1 if missing_any else 0

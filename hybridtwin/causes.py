@@ -21,7 +21,6 @@ KINDS = ("input", "log", "time", "group", "interaction")  # model input, other n
 NAME_UNITS = {
     "c": "°C",
     "degc": "°C",
-    "k": "K",
     "mm": "mm",
     "um": "µm",
     "mpa": "MPa",
@@ -32,7 +31,6 @@ NAME_UNITS = {
     "percent": "%",
     "deg": "°",
     "s": "s",
-    "h": "h",
     "spm": "strokes/min",
 }
 

@@ -386,6 +386,9 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
         return None
     if frame.isna().to_numpy().any():  # a short row, or a number that reads as NaN
         return None
+    text = [name for name in names if name not in numeric]
+    if any(frame[name].str.contains("\x00", regex=False).any() for name in text):  # binary content
+        return None
     if not np.isfinite(frame[numeric].to_numpy(float)).all():
         return None
     return frame

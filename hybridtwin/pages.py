@@ -40,8 +40,11 @@ p.source { color: #666; font-size: 12px; }
 """
 
 
-def header(name, unit: str) -> str:
-    """'rmse_truth_out_of_support' -> 'RMSE truth out of support [mm]'."""
+def header(name, unit: str, verbatim=()) -> str:
+    """'rmse_truth_out_of_support' -> 'RMSE truth out of support [mm]'; the user's own column names
+    (``verbatim``: inputs, target) are left as they are, units and all."""
+    if name in verbatim:
+        return str(name)
     words = str(name).split("_")
     text = " ".join(WORDS.get(word, word) for word in words)
     if words[0] not in WORDS:
@@ -72,9 +75,9 @@ def page(title: str, body: str) -> str:
     )
 
 
-def table_page(frame: pd.DataFrame, title: str, source: str, unit: str) -> str:
-    """One table with human headers; the CSV it shows is named under it."""
-    shown = frame.rename(columns=lambda name: header(name, unit))
+def table_page(frame: pd.DataFrame, title: str, source: str, unit: str, verbatim=()) -> str:
+    """One table with human headers (the user's own column names kept); the CSV it shows is named under it."""
+    shown = frame.rename(columns=lambda name: header(name, unit, verbatim))
     shown = shown.map(cell) if len(shown) else shown
     table = shown.to_html(index=False, escape=True, border=0, na_rep="–")
     return page(title, f'{table}\n<p class="source">Data: <code>{html.escape(source)}</code></p>')

@@ -61,6 +61,7 @@ ANSWER_COLUMNS = (
     "pred_lower",
     "pred_upper",
     "interval_level",
+    "model_region",  # where the recommended model was chosen: 'in_support' for a row in the gate beyond the range
 )
 
 
@@ -228,6 +229,7 @@ class Predictor:
             **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
             "in_domain": in_support & ~beyond_range,
             "region": region.interval,
+            "model_region": region.choice,
             **{f"pred_{model}": value for model, value in predictions.items()},
         }
         recommended = intervals.recommended_prediction(self.intervals, predictions, region, level)

@@ -117,7 +117,8 @@ def tune(
     ``warm_start``: a new study (new data, say an enriched DoE) first tries the best ``warm_start``
     parameter sets of the latest earlier study in the same storage, instead of starting from scratch.
     ``worker``: one of several processes sharing the study; each samples with its own seed (the same
-    seed would have them try the same parameters), and only worker 0 enqueues the warm start.
+    seed would have them try the same parameters). Every worker enqueues the warm start, each set once
+    (whichever worker opens the study first, the earlier best are tried).
     """
     space = space or DEFAULT_SEARCH_SPACE
     X, y = np.asarray(X, float), np.asarray(y, float)
@@ -127,19 +128,19 @@ def tune(
         study_name=name,
         storage=opened,
         direction="minimize",
-        sampler=optuna.samplers.TPESampler(seed=seed + worker),
+        sampler=optuna.samplers.TPESampler(seed=_sampler_seed(seed, worker, 0)),
         load_if_exists=True,
         pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
     )
-    if warm_start and worker == 0 and not study.trials:
+    if warm_start:
         for params in earlier_best(opened, name, study_prefix, space, warm_start):
-            study.enqueue_trial(params)
+            study.enqueue_trial(params, skip_if_exists=True)
     done = _complete(study)
     if done:
         log.info("resuming study %s with %d finished trial(s)", name, done)
     if study.trials:
         # a sampler restarted with the same seed would replay the first trials' parameters
-        study.sampler = optuna.samplers.TPESampler(seed=seed + worker + len(study.trials))
+        study.sampler = optuna.samplers.TPESampler(seed=_sampler_seed(seed, worker, len(study.trials)))
 
     def objective(trial: optuna.Trial) -> float:
         def report(rows):
@@ -159,6 +160,14 @@ def tune(
             callbacks=[optuna.study.MaxTrialsCallback(n_trials, states=FINISHED), progress(n_trials)],
         )
     return study
+
+
+def _sampler_seed(seed: int, worker: int, n_trials: int) -> int:
+    """The first worker's seed as it always was (seed + trials already in the study); other workers' seeds
+    drawn from (seed, worker, trials), so that no two workers, resumed or not, share one."""
+    if worker == 0:
+        return seed + n_trials
+    return int(np.random.SeedSequence([seed, worker, n_trials]).generate_state(1)[0])
 
 
 def progress(n_trials: int):

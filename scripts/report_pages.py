@@ -13,7 +13,9 @@ def main(snakemake):
         if source.endswith(".md"):
             text = pages.markdown_page(Path(source).read_text(), title, source)
         else:
-            text = pages.table_page(read_checked(source), title, source, snakemake.params.unit)
+            text = pages.table_page(
+                read_checked(source), title, source, snakemake.params.unit, snakemake.params.columns
+            )
         with files.atomic_path(snakemake.output[page]) as temporary:
             temporary.write_text(text)
 

@@ -187,6 +187,7 @@ def test_the_one_pass_reader_leaves_wide_and_blank_rows_to_the_careful_reader(ca
         [lines[0], lines[1] + ",extra", *lines[2:]],  # a first row wider than the header
         [*lines[:3], lines[3] + ",extra", *lines[4:]],  # a later row wider than the header
         [*lines[:3], "", *lines[3:]],  # a blank line
+        [*lines[:3], lines[3].replace("C10", "C1\x000"), *lines[4:]],  # a NUL byte in a text cell
     ):
         case.write_text("production", "\n".join(broken) + "\n")
         assert data._read_clean(case.path("production"), numeric, CsvFormat()) is None

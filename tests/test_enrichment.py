@@ -46,6 +46,16 @@ def test_proposals_go_where_production_runs_outside_and_the_share_is_the_rebuilt
     )
 
 
+def test_proposals_counted_in_chunks_of_parts_are_the_same(monkeypatch):
+    doe, production = plant()
+    settings = enrichment.EnrichmentSettings(n_points=3, n_candidates=50, seed=1)
+    whole = enrichment.propose(doe, production, 5, 95, settings)
+    monkeypatch.setattr(enrichment, "GAIN_ROWS", 97)  # many chunks, the last one short
+    chunked = enrichment.propose(doe, production, 5, 95, settings)
+    np.testing.assert_array_equal(chunked.points, whole.points)
+    assert chunked.share_after == whole.share_after
+
+
 def test_proposals_stay_inside_the_physical_limits():
     doe, production = plant(2)
     low, high = enrichment.physical_limits(doe, production, 0.05)

@@ -104,5 +104,8 @@ def test_report_pages_escape_names_give_human_headers_and_units():
     assert "&lt;b&gt;hybrid&lt;/b&gt;" in page and "<b>hybrid" not in page
     assert "<th>RMSE truth out of support [°C]</th>" in page and "<th>n test</th>" in page
     assert "<td>1.235</td>" in page and "<td>11,823</td>" in page
+    # the user's own columns keep their names (and get no unit of the target's)
+    own = pages.table_page(pd.DataFrame({"blank_width_mm": [1.0]}), "T", "t.csv", "deg", ["blank_width_mm"])
+    assert "<th>blank_width_mm</th>" in own
     words = pages.markdown_page("# Title\n\n| a | b |\n|---|---|\n| `x` | 2 |\n", "Diagnosis", "results/diagnosis.md")
     assert "<h1>Title</h1>" in words and "<td><code>x</code></td>" in words

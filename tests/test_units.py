@@ -309,6 +309,20 @@ def test_gpr_standardizes_with_training_rows_only(doe30):
     np.testing.assert_allclose(model.gpr_.X_train_, (X[train] - X[train].mean(0)) / X[train].std(0, ddof=1))
 
 
+def test_gpr_predicts_a_large_table_in_chunks_with_the_same_numbers(doe30, monkeypatch):
+    from hybridtwin import surrogate
+
+    X, y = doe30
+    model = GPRSurrogate(n_restarts=0).fit(X, y)
+    query = np.random.default_rng(5).uniform([0, 0, 0], [1, 2, 10], (1000, 3))
+    mean, std = model.predict(query, return_std=True)
+    monkeypatch.setattr(surrogate, "PREDICT_ROWS", 64)
+    chunked_mean, chunked_std = model.predict(query, return_std=True)
+    np.testing.assert_allclose(chunked_mean, mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(chunked_std, std, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(model.predict(query), mean, rtol=0, atol=1e-12)
+
+
 def test_gpr_json_round_trip_and_determinism(doe30):
     X, y = doe30
     model = GPRSurrogate(n_restarts=1, random_state=4).fit(X, y)
@@ -611,33 +625,36 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
     assert all("best so far" in line for line in lines)
 
 
-def test_tuning_workers_sample_apart_and_only_the_first_takes_the_warm_start(tmp_path):
+def test_tuning_workers_sample_apart_and_each_takes_the_warm_start(tmp_path):
     rng = np.random.default_rng(0)
     X = rng.random((200, 3))
     y = X[:, 0] + rng.normal(0, 0.1, 200)
     space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
 
-    def first_params(worker, storage, data=(X, y), warm_start=0):
-        study = residual.tune(
+    def study(storage, worker=0, data=(X, y), seed=1, n_trials=1, warm_start=0):
+        return residual.tune(
             *data,
-            n_trials=1,
+            n_trials=n_trials,
             n_folds=3,
-            seed=1,
-            storage=str(storage),
+            seed=seed,
+            storage=str(tmp_path / storage),
             space=space,
             worker=worker,
             warm_start=warm_start,
         )
-        return study.trials[0].params
 
     # the same study's seed in two workers would try the same parameters first
-    assert first_params(0, tmp_path / "a.log") != first_params(1, tmp_path / "b.log")
-    assert first_params(0, tmp_path / "a.log") == first_params(0, tmp_path / "c.log")
-    # on new data, worker 0 starts from the earlier study's best; worker 1 leaves that to it
-    earlier = first_params(0, tmp_path / "a.log")
+    assert study("a.log").trials[0].params != study("b.log", worker=1).trials[0].params
+    assert study("c.log").trials[0].params == study("d.log").trials[0].params
+    # an earlier study (another seed, 4 trials); on new data whichever worker opens the study first
+    # tries the earlier best first
     new_data = (X, y + 0.01)
-    assert first_params(0, tmp_path / "a.log", new_data, warm_start=1) == earlier
-    assert first_params(1, tmp_path / "c.log", new_data, warm_start=1) != first_params(0, tmp_path / "c.log")
+    for storage, worker in (("e.log", 0), ("f.log", 1)):
+        earlier = study(storage, seed=7, n_trials=4)
+        best = min(earlier.trials, key=lambda t: t.value).params
+        cold = study(f"cold-{storage}", worker=worker, data=new_data).trials[0].params
+        warm = study(storage, worker=worker, data=new_data, warm_start=1).trials[0].params
+        assert warm == best and cold != best
 
 
 @pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])

@@ -66,6 +66,8 @@ rule report_pages:
     params:
         code=PACKAGE_CODE,
         unit=UNIT,
+        # the user's own column names, shown as they are
+        columns=[*INPUTS, TARGET, config["columns"]["matched_simulated"], config["columns"]["matched_measured"]],
         titles={page: title for page, (_, title, *_) in REPORT_PAGES.items()},
     script:
         "../../scripts/report_pages.py"

@@ -52,6 +52,7 @@ rule tune_residual:
         benchmark_of("tune_residual")
     conda:
         "../envs/hybridtwin.yaml"
+    threads: 2  # any trial a worker left undone runs here
     params:
         **TUNING_PARAMS,
     script:
