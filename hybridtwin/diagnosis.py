@@ -398,15 +398,17 @@ def prefer_simpler(best: Fit, pool: list[Fit], y, rules: Rules) -> Fit:
         if counted is not None and _complexity(counted) < own:
             # named with the column's own choice of form (held-out score) among its forms that predict the same
             form = next(alt for alt in fit.alternatives or [fit] if equivalent(alt))
-            rivals.append((_complexity(counted), form.score, fit.candidate.name, form, counted))
+            rivals.append((_complexity(counted), form.score, fit.candidate.name, form, counted, fit))
     if not rivals:
         return best
-    ladder = sorted(rivals, key=lambda rival: rival[:3]) + [(own, best.score, best.candidate.name, best, best)]
+    ladder = sorted(rivals, key=lambda rival: rival[:3]) + [(own, best.score, best.candidate.name, best, best, best)]
     choice = ladder[0]
     for rival in ladder[1:]:
-        # measured against the form the choice was counted by: a column needs more parameters than
-        # that to match a simpler-counted one, it is not simpler
-        if better_held_out(rival[3], choice[4], y, rules.settings):
+        # the question is which column, not which form: a rival must predict better than the choice's
+        # column does with the rival's own form (a bend in both is no reason to change columns), and
+        # than the form the choice was counted by (needing more parameters to match it is not simpler)
+        same_form = next((alt for alt in choice[5].alternatives if alt.form.name == rival[3].form.name), choice[4])
+        if all(better_held_out(rival[3], reference, y, rules.settings) for reference in (same_form, choice[4])):
             choice = rival
     return choice[3]
 

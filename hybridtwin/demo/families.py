@@ -232,6 +232,15 @@ def _scaled(values: np.ndarray, inside: np.ndarray, target_std: float) -> np.nda
     return centred * target_std / centred[inside].std()
 
 
+# elapsed hours and strokes this correlated over the in-support parts: the line stood idle too little
+# for a drift in one to differ from a drift in the other by more than ~5% of its size
+NEVER_IDLE_CORRELATION = 0.999
+
+
+def _never_idle(hours: np.ndarray, strokes: np.ndarray) -> bool:
+    return float(np.corrcoef(hours, strokes.astype(float))[0, 1]) > NEVER_IDLE_CORRELATION
+
+
 def draw_plant(
     family: str, seed: int, n_production: int | None = None, min_in_support: float = 0.07, n_doe: int = 67
 ) -> PlantCase:
@@ -297,11 +306,16 @@ def draw_plant(
         text = f"an offset per coil that no logged quantity explains, sd {offsets.std():.1f} mm"
     elif family == "time_drift":
         effect = _scaled(hidden["elapsed_h"], inside, sign * rng.uniform(1.8, 3.0))
-        expected = Expected(names["time"], ("linear",), monotone=True)
         text = (
             f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
             "in support, that no logged quantity explains"
         )
+        if _never_idle(hidden["elapsed_h"][inside], hidden["strokes"][inside]):
+            # without idle time the stroke counter is calendar time on another scale: no data can tell them apart
+            expected = Expected(names["time"], ("linear",), monotone=True, alias=names["strokes"])
+            text += f"; the line never stands idle in support, so {names['strokes']} is time on another scale"
+        else:
+            expected = Expected(names["time"], ("linear",), monotone=True)
     else:  # null
         expected = Expected(None)
         text = "no hidden effect"

@@ -222,6 +222,28 @@ class Outcome:
         return self.top_significant and named(self.expected, self.top_cause) and self.form_ok and self.others_found
 
     @property
+    def answer_ok(self) -> bool:
+        """The answer the data support, and nothing more lenient: every hidden cause chosen with its form family,
+        one of them first; where the plant holds a column the data cannot tell from the cause (its ``alias``:
+        a near-copy sensor, a stroke counter on a line that never stands idle), either may be named, provided
+        the two are reported as not told apart. Other aliases do not count."""
+        if self.expected.cause is None:
+            return self.n_significant == 0
+        hidden = (self.expected, *self.expected.also)
+
+        def found(chosen: Chosen, wanted: Expected) -> bool:
+            form_ok = chosen.form in wanted.forms or (wanted.monotone and chosen.monotone)
+            return form_ok and (named(wanted, chosen.cause) or chosen.cause == wanted.alias)
+
+        return (
+            self.top_significant
+            and bool(self.chosen)
+            and any(found(self.chosen[0], wanted) for wanted in hidden)
+            and all(any(found(chosen, wanted) for chosen in self.chosen) for wanted in hidden)
+            and self.alias_reported
+        )
+
+    @property
     def shap_correct(self) -> bool:
         """The baseline: the column with the largest mean |TreeSHAP| is the hidden cause (or its near-copy)."""
         if self.expected.cause is None:
