@@ -195,6 +195,56 @@ def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(dr
     assert chosen.candidate.name == expected
 
 
+def test_a_bend_both_columns_show_is_no_reason_to_name_time():
+    # the line never stands idle: hours are strokes on another scale; the drift along strokes bends a little
+    rng = np.random.default_rng(6)
+    n = 4000
+    strokes = 100_000 + np.arange(n, dtype=float)
+    hours = (strokes - strokes[0]) / 900.0 + rng.normal(0, 0.01, n)
+    z = (strokes - strokes.mean()) / strokes.std()
+    y = 4.0 * z + 0.5 * (z**2 - 1.0) + rng.normal(0, 1.0, n)  # the bend: std 0.71, 3% of the variance
+    y -= y.mean()
+    fits = [
+        best_fit(Candidate.new(name, kind, values, (name,)), y, SETTINGS, 1.0)
+        for name, kind, values in [("time", "time", hours), ("strokes", "log", strokes)]
+    ]
+    time_bent = next(alt for alt in fits[0].alternatives if alt.form.name == "quadratic")
+    strokes_line = next(alt for alt in fits[1].alternatives if alt.form.name == "linear")
+    # the bend is real: time's parabola predicts significantly better than a line in strokes ...
+    assert diagnosis.better_held_out(time_bent, strokes_line, y, SETTINGS)
+    # ... and strokes count by that line (it predicts the parabola within the least effect), but time
+    # must also beat the strokes' own parabola, and does not
+    chosen = diagnosis.prefer_simpler(time_bent, fits, y, Lenient(SETTINGS, min_effect=1.0))
+    assert chosen.candidate.name == "strokes"
+
+
+def _pair(name: str, a, b) -> Candidate:
+    return Candidate.new(name, "interaction", np.column_stack([a, b]), tuple(name.split("*")))
+
+
+def test_a_product_named_for_an_id_must_also_hold_within_its_levels():
+    rng = np.random.default_rng(7)
+    coil = np.repeat(np.arange(40), 100)
+    a_per_coil, b_per_coil = rng.normal(0, 1, 40)[coil], rng.normal(0, 1, 40)[coil]
+    offsets = a_per_coil * b_per_coil  # the coils' offsets, matched exactly by a product of per-coil columns
+    y = offsets + rng.normal(0, 0.3, len(coil))
+    y -= y.mean()
+    chance = best_fit(_pair("a*b", a_per_coil, b_per_coil), y, SETTINGS)
+    assert not diagnosis.explains_within_levels(chance, coil, y, SETTINGS)  # nothing to show inside a coil
+    a, b = a_per_coil + rng.normal(0, 1, len(coil)), b_per_coil + rng.normal(0, 1, len(coil))  # set within coils
+    y_real = a * b + rng.normal(0, 0.3, len(coil))
+    y_real -= y_real.mean()
+    real = best_fit(_pair("a*b", a, b), y_real, SETTINGS)
+    assert diagnosis.explains_within_levels(real, coil, y_real, SETTINGS)
+    # the rule as diagnose applies it: the chance product is not accepted for the coil, the real one is
+    coil_fit = best_fit(Candidate.new("coil", "group", coil.astype(str), ("coil",)), y, SETTINGS)
+    assert not diagnosis._acceptable_for(coil_fit, y, Lenient(SETTINGS))(chance)
+    assert diagnosis._acceptable_for(coil_fit, y_real, Lenient(SETTINGS))(real)
+    # a per-coil quantity has nothing to show within a coil and is not asked to
+    lube = best_fit(Candidate.new("lube", "log", a_per_coil, ("lube",)), y, SETTINGS)
+    assert diagnosis._acceptable_for(coil_fit, y, Lenient(SETTINGS, min_effect=0.5))(lube)
+
+
 def test_no_cause_on_pure_noise():
     rng = np.random.default_rng(4)
     frame = pd.DataFrame({"a": rng.normal(0, 1, 2000), "coil": [f"K{i // 50}" for i in range(2000)]})
