@@ -423,30 +423,13 @@ def better_held_out(fit: Fit, reference: Fit, y, settings: Settings) -> bool:
     return block_p_value(y, fit.oof, settings.n_blocks, reference=reference.oof) < settings.alpha
 
 
-def level_means(labels, values) -> np.ndarray:
-    """Each row's level mean of ``values`` (levels given by ``labels``)."""
-    codes = np.unique(np.asarray(labels), return_inverse=True)[1]
-    values = np.asarray(values, float)
-    return (np.bincount(codes, weights=values) / np.bincount(codes))[codes]
-
-
 def between_level_ss(labels, values) -> float:
     """Count-weighted sum of squares of the level means of ``values`` around their overall mean."""
+    codes = np.unique(np.asarray(labels), return_inverse=True)[1]
     values = np.asarray(values, float)
-    return float(np.sum((level_means(labels, values) - values.mean()) ** 2))
-
-
-def explains_within_levels(fit: Fit, labels, y, settings: Settings) -> bool:
-    """Whether ``fit``'s form predicts ``y`` within an id's levels (held out, block test at ``settings.alpha``).
-
-    An id recalls each level from its own parts and nothing else. A product of two columns that
-    stands for the id's level differences must also hold where the id has nothing to say, between
-    the parts of one level (a setting changed within a coil); one of dozens of pairs that matches a
-    few dozen random coil offsets by chance does not.
-    """
-    within = np.asarray(y, float) - level_means(labels, y)
-    oof = held_out_worst(fit.form.name, fit.candidate, within, settings)
-    return block_p_value(within, oof, settings.n_blocks) < settings.alpha
+    counts = np.bincount(codes)
+    means = np.bincount(codes, weights=values) / counts
+    return float(np.sum(counts * (means - values.mean()) ** 2))
 
 
 def proxy_share(proxy: Fit, rival: Fit, y) -> float:
@@ -465,42 +448,22 @@ def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, floa
     temperature, a setting and a material at once out-scores each of them. Both kinds are
     put on the same footing by asking what the id's level differences are: when a
     significant candidate that is not an id accounts for most of them
-    (:data:`PROXY_SHARE`; :data:`PROXY_SHARE_PAIR` for a product), and holds within the id's levels
-    where it changes there (:func:`_acceptable_for`), that candidate is named, the
+    (:data:`PROXY_SHARE`; :data:`PROXY_SHARE_PAIR` for a product), that candidate is named, the
     best-scoring such one. The id
     stays a candidate for the next step, where it is chosen only if its remainder,
     given the named cause, is significant. Returns the cause and the share it accounts for.
     """
     if best.candidate.kind != "group":
         return best, 0.0
-    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool if fit.candidate.kind != "group"]
+    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool if fit.candidate.kind != "group" and acceptable(fit)]
     rivals = [
         (fit, share)
         for fit, share in rivals
-        if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE) and acceptable(fit)
+        if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE)
     ]
     if not rivals:
         return best, 0.0
     return min(rivals, key=lambda rival: (rival[0].score, rival[0].candidate.name))
-
-
-def _acceptable_for(proxy: Fit, y, rules: Rules):
-    """What a candidate must show to be named for the id ``proxy``: significance and, where its term
-    changes within the id's levels by more than the least effect (always, for a product), a held-out
-    gain there too (:func:`explains_within_levels`). A per-coil quantity has nothing to show within a
-    coil; an ambient temperature that swings over each day does."""
-    labels = proxy.candidate.values
-
-    def acceptable(fit: Fit) -> bool:
-        if not rules.significant(fit):
-            return False
-        term = fit.form.predict(fit.candidate.values)
-        varies_within = float(np.std(term - level_means(labels, term))) > rules.min_effect
-        if fit.candidate.kind != "interaction" and not varies_within:
-            return True
-        return explains_within_levels(fit, labels, y, rules.settings)
-
-    return acceptable
 
 
 def _complexity(fit: Fit) -> float:
@@ -599,7 +562,7 @@ def diagnose(
             if not pool:
                 break
             best = prefer_simpler(min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, remaining, rules)
-            named, share = physical_cause(best, pool, remaining, _acceptable_for(best, remaining, rules))
+            named, share = physical_cause(best, pool, remaining, rules.significant)
             if named is not best:
                 proxies[best.candidate.name] = (named.candidate.name, share)
                 best = prefer_simpler(named, pool, remaining, rules)

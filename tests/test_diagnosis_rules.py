@@ -218,33 +218,6 @@ def test_a_bend_both_columns_show_is_no_reason_to_name_time():
     assert chosen.candidate.name == "strokes"
 
 
-def _pair(name: str, a, b) -> Candidate:
-    return Candidate.new(name, "interaction", np.column_stack([a, b]), tuple(name.split("*")))
-
-
-def test_a_product_named_for_an_id_must_also_hold_within_its_levels():
-    rng = np.random.default_rng(7)
-    coil = np.repeat(np.arange(40), 100)
-    a_per_coil, b_per_coil = rng.normal(0, 1, 40)[coil], rng.normal(0, 1, 40)[coil]
-    offsets = a_per_coil * b_per_coil  # the coils' offsets, matched exactly by a product of per-coil columns
-    y = offsets + rng.normal(0, 0.3, len(coil))
-    y -= y.mean()
-    chance = best_fit(_pair("a*b", a_per_coil, b_per_coil), y, SETTINGS)
-    assert not diagnosis.explains_within_levels(chance, coil, y, SETTINGS)  # nothing to show inside a coil
-    a, b = a_per_coil + rng.normal(0, 1, len(coil)), b_per_coil + rng.normal(0, 1, len(coil))  # set within coils
-    y_real = a * b + rng.normal(0, 0.3, len(coil))
-    y_real -= y_real.mean()
-    real = best_fit(_pair("a*b", a, b), y_real, SETTINGS)
-    assert diagnosis.explains_within_levels(real, coil, y_real, SETTINGS)
-    # the rule as diagnose applies it: the chance product is not accepted for the coil, the real one is
-    coil_fit = best_fit(Candidate.new("coil", "group", coil.astype(str), ("coil",)), y, SETTINGS)
-    assert not diagnosis._acceptable_for(coil_fit, y, Lenient(SETTINGS))(chance)
-    assert diagnosis._acceptable_for(coil_fit, y_real, Lenient(SETTINGS))(real)
-    # a per-coil quantity has nothing to show within a coil and is not asked to
-    lube = best_fit(Candidate.new("lube", "log", a_per_coil, ("lube",)), y, SETTINGS)
-    assert diagnosis._acceptable_for(coil_fit, y, Lenient(SETTINGS, min_effect=0.5))(lube)
-
-
 def test_no_cause_on_pure_noise():
     rng = np.random.default_rng(4)
     frame = pd.DataFrame({"a": rng.normal(0, 1, 2000), "coil": [f"K{i // 50}" for i in range(2000)]})
