@@ -20,6 +20,7 @@ import dataclasses
 import itertools
 import logging
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -359,6 +360,17 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
     return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
 
 
+class _Rung(NamedTuple):
+    """A column on :func:`prefer_simpler`'s ladder, simplest first."""
+
+    complexity: float
+    score: float
+    name: str
+    named: Fit  # the form it would be named with
+    counted: Fit  # the form its simplicity was counted by
+    column: Fit  # its best fit, with every form tried (``alternatives``)
+
+
 def prefer_simpler(best: Fit, pool: list[Fit], y, rules: Rules) -> Fit:
     """Among other single-column candidates' fits that predict what the best one predicts, up to
     ``rules.min_effect`` (std of the difference), take the one with the fewest parameters.
@@ -398,19 +410,21 @@ def prefer_simpler(best: Fit, pool: list[Fit], y, rules: Rules) -> Fit:
         if counted is not None and _complexity(counted) < own:
             # named with the column's own choice of form (held-out score) among its forms that predict the same
             form = next(alt for alt in fit.alternatives or [fit] if equivalent(alt))
-            rivals.append((_complexity(counted), form.score, fit.candidate.name, form, counted, fit))
+            rivals.append(_Rung(_complexity(counted), form.score, fit.candidate.name, form, counted, fit))
     if not rivals:
         return best
-    ladder = sorted(rivals, key=lambda rival: rival[:3]) + [(own, best.score, best.candidate.name, best, best, best)]
+    ladder = sorted(rivals, key=lambda rung: rung[:3]) + [_Rung(own, best.score, best.candidate.name, best, best, best)]
     choice = ladder[0]
-    for rival in ladder[1:]:
+    for rung in ladder[1:]:
         # the question is which column, not which form: a rival must predict better than the choice's
         # column does with the rival's own form (a bend in both is no reason to change columns), and
         # than the form the choice was counted by (needing more parameters to match it is not simpler)
-        same_form = next((alt for alt in choice[5].alternatives if alt.form.name == rival[3].form.name), choice[4])
-        if all(better_held_out(rival[3], reference, y, rules.settings) for reference in (same_form, choice[4])):
-            choice = rival
-    return choice[3]
+        same_form = next(
+            (alt for alt in choice.column.alternatives if alt.form.name == rung.named.form.name), choice.counted
+        )
+        if all(better_held_out(rung.named, ref, y, rules.settings) for ref in (same_form, choice.counted)):
+            choice = rung
+    return choice.named
 
 
 def better_held_out(fit: Fit, reference: Fit, y, settings: Settings) -> bool:

@@ -125,10 +125,18 @@ class Chosen:
     monotone: bool
     aliases: tuple[str, ...] = ()
 
+    def form_fits(self, expected: Expected) -> bool:
+        return self.form in expected.forms or (expected.monotone and self.monotone)
+
     def matches(self, expected: Expected) -> bool:
-        """The expected cause (or an honestly reported alias of it) with its form family."""
-        form_ok = self.form in expected.forms or (expected.monotone and self.monotone)
-        return form_ok and (named(expected, self.cause) or any(named(expected, a) for a in self.aliases))
+        """The expected cause (or any alias reported beside it) with its form family."""
+        return self.form_fits(expected) and (
+            named(expected, self.cause) or any(named(expected, a) for a in self.aliases)
+        )
+
+    def names(self, expected: Expected) -> bool:
+        """The expected cause, or the column the data cannot tell from it (``expected.alias``), with its form."""
+        return self.form_fits(expected) and (named(expected, self.cause) or self.cause == expected.alias)
 
 
 @dataclass
@@ -230,16 +238,11 @@ class Outcome:
         if self.expected.cause is None:
             return self.n_significant == 0
         hidden = (self.expected, *self.expected.also)
-
-        def found(chosen: Chosen, wanted: Expected) -> bool:
-            form_ok = chosen.form in wanted.forms or (wanted.monotone and chosen.monotone)
-            return form_ok and (named(wanted, chosen.cause) or chosen.cause == wanted.alias)
-
         return (
             self.top_significant
             and bool(self.chosen)
-            and any(found(self.chosen[0], wanted) for wanted in hidden)
-            and all(any(found(chosen, wanted) for chosen in self.chosen) for wanted in hidden)
+            and any(self.chosen[0].names(wanted) for wanted in hidden)
+            and all(any(chosen.names(wanted) for chosen in self.chosen) for wanted in hidden)
             and self.alias_reported
         )
 
