@@ -1,13 +1,15 @@
 """hybridtwin.extension: offset plus diagnosed terms, refitted jointly, trusted only as far as the data show."""
 
 import json
+from functools import partial
 
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.dummy import DummyRegressor
 
 from hybridtwin.causes import Cause, Term
-from hybridtwin.extension import DiscrepancyExtension, gain_table
+from hybridtwin.extension import DiscrepancyExtension, evaluate, gain_table
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)
@@ -77,3 +79,63 @@ def test_gain_table_scores_each_region_on_its_rows():
     assert row["out_of_support_over_noise"] == pytest.approx(np.sqrt(2.0) / 2.0)
     assert table.set_index("model").loc["extended", "rmse_out_of_support"] == 0.0
     assert (table["n_in_support"] == 2).all() and (table["n_out_of_support"] == 2).all()
+
+
+def evaluation_by_hand():
+    """Eight parts, six in support (rows 0, 2, 3, 5, 6, 7) with residuals 0, 0, 0, 0, 0, 6; the two outside
+    carry 100, which no model may see. No terms: the extension is the offset (the training rows' mean
+    residual); the remainder model is the largest residual it leaves over. Two folds over the in-support rows."""
+    production = pd.DataFrame({"a": np.arange(8.0)})
+    inside = np.array([True, False, True, True, False, True, True, True])
+    residuals = pd.DataFrame(
+        {
+            "residual_approx": [0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0],
+            "pred_surrogate": np.full(8, 10.0),
+            "in_support": inside,
+        }
+    )
+    hybrid = pd.DataFrame({"pred_hybrid_oof": np.arange(8.0) + 50})
+    matched, matched_cases = pd.DataFrame({"a": [3.5]}), pd.DataFrame({"pred_surrogate": [20.0], "pred_hybrid": [21.0]})
+    splits = [(np.array([0, 1, 2]), np.array([3, 4, 5])), (np.array([3, 4, 5]), np.array([0, 1, 2]))]
+    largest = partial(DummyRegressor, strategy="quantile", quantile=1.0)
+    return evaluate(production, residuals, hybrid, matched, matched_cases, ["a"], (), largest, splits)
+
+
+def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
+    result = evaluation_by_hand()
+    # all six in-support rows: offset 1, largest leftover 6 - 1 = 5; the same everywhere
+    np.testing.assert_allclose(result.production["pred_extended"], np.full(8, 11.0))
+    np.testing.assert_allclose(result.production["pred_extended_hybrid"], np.full(8, 16.0))
+    # fold 1 trains on rows 0, 2, 3 (offset 0, leftover 0) and predicts rows 5, 6, 7;
+    # fold 2 trains on rows 5, 6, 7 (offset 2, leftover 4) and predicts rows 0, 2, 3; rows 1, 4: final models
+    np.testing.assert_allclose(result.production["pred_extended_oof"], [12, 11, 12, 12, 11, 10, 10, 10])
+    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"], [16, 16, 16, 16, 16, 10, 10, 10])
+    np.testing.assert_allclose(result.scored["extended"], result.production["pred_extended_oof"])
+    np.testing.assert_allclose(result.scored["extended_hybrid"], result.production["pred_extended_hybrid_oof"])
+    np.testing.assert_allclose(result.scored["surrogate"], np.full(8, 10.0))
+    np.testing.assert_allclose(result.scored["hybrid"], np.arange(8.0) + 50)
+    assert result.models.extension.offset_ == pytest.approx(1.0)
+
+
+def test_evaluation_predicts_the_matched_cases_with_the_final_models():
+    matched = evaluation_by_hand().matched
+    assert {name: float(values[0]) for name, values in matched.items()} == pytest.approx(
+        {"surrogate": 20.0, "hybrid": 21.0, "extended": 21.0, "extended_hybrid": 26.0}
+    )
+
+
+def test_evaluation_needs_one_prediction_per_matched_case():
+    production = pd.DataFrame({"a": [1.0, 2.0]})
+    residuals = pd.DataFrame({"residual_approx": [0.0, 1.0], "pred_surrogate": [1.0, 1.0], "in_support": [1, 1]})
+    with pytest.raises(ValueError, match="2 matched-case predictions for 1 matched cases"):
+        evaluate(
+            production,
+            residuals,
+            pd.DataFrame({"pred_hybrid_oof": [1.0, 2.0]}),
+            pd.DataFrame({"a": [1.0]}),
+            pd.DataFrame({"pred_surrogate": [1.0, 2.0], "pred_hybrid": [1.0, 2.0]}),
+            ["a"],
+            (),
+            DummyRegressor,
+            [],
+        )

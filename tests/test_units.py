@@ -1,4 +1,4 @@
-"""Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual, hybrid."""
+"""Unit tests against hand-computed values: metrics, DoE standardization, kNN gate, CV, surrogate, residual."""
 
 import json
 import logging
@@ -13,9 +13,9 @@ import pandas as pd
 import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
-from hybridtwin import hybrid, residual, tables
-from hybridtwin.crossval import cross_validate, fold_ids, folds, splits_of, written_splits
-from hybridtwin.gate import DoEStandardizer, KNNSupportGate
+from hybridtwin import residual, tables
+from hybridtwin.crossval import cross_validate, cv_table, fold_ids, folds, splits_of, written_splits
+from hybridtwin.gate import DoEStandardizer, InputColumnsError, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
 from hybridtwin.surrogate import GPRSurrogate
 
@@ -81,8 +81,14 @@ def test_standardizer_applies_doe_statistics_to_production():
 
 
 def test_standardizer_constant_column_raises():
-    with pytest.raises(ValueError, match="constant"):
+    with pytest.raises(ValueError, match=r"constant input column\(s\) at position\(s\) \[1\]"):
         DoEStandardizer().fit(np.array([[1.0, 5.0], [2.0, 5.0], [3.0, 5.0]]))
+
+
+def test_standardizer_of_one_row_centres_without_scaling():
+    std = DoEStandardizer().fit(np.array([[1.0, 2.0]]))  # no spread to scale by: unit scale, not NaN
+    np.testing.assert_array_equal(std.scale_, [1.0, 1.0])
+    np.testing.assert_array_equal(std.transform(np.array([[3.0, 2.0]])), [[2.0, 0.0]])
 
 
 def test_standardizer_round_trip():
@@ -155,11 +161,6 @@ def test_gate_uses_given_standardizer():
     assert gate.threshold_ == pytest.approx(3.0)
 
 
-def test_gate_needs_more_rows_than_k():
-    with pytest.raises(ValueError):
-        KNNSupportGate(k=5).fit(LINE)
-
-
 def test_gate_round_trip():
     rng = np.random.default_rng(0)
     doe = rng.uniform(0, 1, (30, 3)) * [1, 100, 0.01]
@@ -170,6 +171,56 @@ def test_gate_round_trip():
     np.testing.assert_allclose(copy.distance(query), gate.distance(query), rtol=0, atol=1e-12)
     assert copy.threshold_ == gate.threshold_
     assert 0 < gate.predict(query).sum() < len(query)
+
+
+def test_gate_support_table_gives_distance_and_verdict_per_row():
+    gate = KNNSupportGate(k=1, percentile=75).fit(LINE)
+    table = gate.support_table(np.array([[8.0], [14.0]]))  # nearest DoE points 6 or 10 (2) and 10 (4)
+    assert table.columns.tolist() == ["knn_distance", "in_support"]
+    np.testing.assert_allclose(table["knn_distance"], np.array([2.0, 4.0]) / LINE_STD)
+    assert table["in_support"].tolist() == [True, False]  # threshold 3 / std
+
+
+NAMED_DOE = pd.DataFrame({"die_temp": [20.0, 40.0, 60.0, 30.0, 50.0, 45.0], "blank_mm": [1.0, 1.2, 0.8, 0.9, 1.1, 1.3]})
+
+
+@pytest.mark.parametrize("model", [DoEStandardizer(), KNNSupportGate(k=2, percentile=80)])
+def test_columns_are_matched_by_name_in_any_order_and_after_a_round_trip(model):
+    """A what-if table with the columns in another order gets the same answer; the names survive the file."""
+    fitted = model.fit(NAMED_DOE)
+    answer = (lambda m, X: m.transform(X)) if isinstance(model, DoEStandardizer) else (lambda m, X: m.distance(X))
+    query = pd.DataFrame({"blank_mm": [1.0, 1.5], "die_temp": [35.0, 80.0]})  # reversed order
+    expected = answer(fitted, query[["die_temp", "blank_mm"]].to_numpy())
+    data = json.loads(json.dumps(fitted.to_dict()))
+    assert data["inputs"] == ["die_temp", "blank_mm"]
+    loaded = type(model).from_dict(data)
+    for each in (fitted, loaded):
+        assert each.feature_names_in_.tolist() == ["die_temp", "blank_mm"]
+        np.testing.assert_allclose(answer(each, query), expected)
+        with pytest.raises(InputColumnsError, match="no input column 'blank_mm'; the model was fitted on die_temp"):
+            answer(each, query[["die_temp"]])
+        with pytest.raises(InputColumnsError, match="1 input columns given, the model was fitted on 2"):
+            answer(each, query[["die_temp"]].to_numpy())
+
+
+def test_a_model_file_with_the_wrong_number_of_names_is_an_error():
+    data = DoEStandardizer().fit(NAMED_DOE).to_dict() | {"inputs": ["die_temp"]}
+    with pytest.raises(ValueError, match="model file lists 1 inputs for 2 columns"):
+        DoEStandardizer.from_dict(data)
+
+
+def test_a_gate_fitted_on_an_array_has_no_names_and_takes_columns_by_position():
+    gate = KNNSupportGate(k=2, percentile=80).fit(NAMED_DOE.to_numpy())
+    assert gate.to_dict()["inputs"] is None and not hasattr(gate, "feature_names_in_")
+    np.testing.assert_allclose(gate.distance(NAMED_DOE), gate.distance(NAMED_DOE.to_numpy()))
+
+
+def test_gate_needs_one_row_more_than_k_and_counts_the_threshold_as_inside():
+    gate = KNNSupportGate(k=4, percentile=75).fit(LINE)  # five rows for k = 4: enough
+    assert gate.n_features_in_ == 1
+    assert gate.within(np.array([gate.threshold_, np.nextafter(gate.threshold_, np.inf)])).tolist() == [True, False]
+    with pytest.raises(ValueError, match="the kNN gate needs more than k=5 DoE rows, got 5"):
+        KNNSupportGate(k=5).fit(LINE)
 
 
 def test_gate_sklearn_clone():
@@ -275,6 +326,25 @@ def test_cross_validate_oof_leave_one_out_by_hand():
     np.testing.assert_allclose(oof, [15 / 3, 14 / 3, 13 / 3, 6 / 3])
     # per-fold rmse of one row is |y - oof|, whatever the fold order
     assert sorted(per_fold["rmse"]) == pytest.approx(sorted([4.0, 8 / 3, 4 / 3, 8.0]))
+
+
+def test_cv_table_summarizes_folds_and_pools_the_out_of_fold_predictions():
+    per_fold = pd.DataFrame({"rmse": [1.0, 3.0], "mae": [1.0, 2.0], "bias": [0.5, -0.5], "r2": [0.25, 0.75]})
+    y, oof = np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 2.0, 3.0, 2.0])  # errors -1, 0, 0, 2
+    row = cv_table(per_fold, y, oof, model="m", evaluated_on="the DoE").iloc[0]
+    assert (row["model"], row["n"], row["folds"], row["evaluated_on"]) == ("m", 4, 2, "the DoE")
+    assert (row["cv_rmse_mean"], row["cv_rmse_std"]) == pytest.approx((2.0, math.sqrt(2.0)))  # sample std
+    assert (row["cv_mae_mean"], row["cv_mae_std"]) == pytest.approx((1.5, math.sqrt(0.5)))
+    assert (row["cv_bias_mean"], row["cv_r2_mean"]) == pytest.approx((0.0, 0.5))
+    assert row["pooled_rmse"] == pytest.approx(math.sqrt(5 / 4))
+    assert row["pooled_mae"] == pytest.approx(3 / 4)
+    assert row["pooled_r2"] == pytest.approx(1 - 5 / 5)  # SSE 5, y's SST 5
+
+
+def test_cv_table_of_one_fold_has_no_spread():
+    per_fold = pd.DataFrame({"rmse": [1.0], "mae": [1.0], "bias": [0.0], "r2": [0.5]})
+    row = cv_table(per_fold, np.array([1.0, 3.0]), np.array([1.0, 3.0]), "m", "x").iloc[0]
+    assert row["cv_rmse_std"] == 0.0 and row["folds"] == 1
 
 
 # --------------------------------------------------------------------------- 5. GPR surrogate
@@ -537,12 +607,6 @@ def test_matched_summary_by_hand():
     assert hyb["r2"] == pytest.approx(1 - 0.25 / 8)  # measured mean 12, SST 8
     gat = rows.loc["hybrid gated (measured vs gated y_hyb)"]  # errors [0, 0, -0.5]
     assert (gat["rmse"], gat["bias"]) == pytest.approx((math.sqrt(0.25 / 3), -0.5 / 3))
-
-
-def test_gated_hybrid():
-    np.testing.assert_allclose(
-        hybrid.gated(np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.5, 0.5]), np.array([1, 0, 1])), [1.5, 2.0, 3.5]
-    )
 
 
 # --------------------------------------------------------------------------- 8. sensitivity table (Table 5)

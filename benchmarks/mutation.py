@@ -1,0 +1,115 @@
+"""Mutation testing of the method modules against the fast tests: the share of mutants each module's tests kill.
+
+    python benchmarks/mutation.py            # a fresh run (about 10 minutes on 2 cores, run alone)
+    python benchmarks/mutation.py --report   # only re-read the results of the last run in mutants/
+
+mutmut (its settings: ``[tool.mutmut]`` in pyproject.toml) copies the package to ``mutants/``, changes one
+operator, constant or call at a time, and runs the fast tests that reach the changed function. A mutant
+is killed when a test fails. Mutants that cannot change any result (equivalent) are listed with their
+reason in ``benchmarks/mutation_equivalent.txt`` and left out of the rate; the rest of the survivors,
+and the mutants no fast test reaches, count against it. Writes ``benchmarks/results/mutation.md``.
+"""
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from collections import Counter
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+EQUIVALENT = ROOT / "benchmarks" / "mutation_equivalent.txt"
+OUT = ROOT / "benchmarks" / "results" / "mutation.md"
+GOAL = 0.85
+# forked test processes must not inherit a parent's OpenMP thread team: it hangs them (every mutant timed out)
+SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def fast_tests() -> list[str]:
+    """The fast test files, one list for mutmut and for ``known_breaks.py``."""
+    settings = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["mutmut"]
+    return settings["pytest_add_cli_args_test_selection"]
+
+
+def run_mutmut(children: int) -> None:
+    shutil.rmtree(ROOT / "mutants", ignore_errors=True)
+    command = ["mutmut", "run", "--max-children", str(children)]
+    subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
+
+
+def statuses() -> dict[str, str]:
+    """Mutant name -> status (killed, survived, no tests, timeout, ...), from mutmut's own listing."""
+    listing = subprocess.run(
+        ["mutmut", "results", "--all", "true"], cwd=ROOT, check=True, capture_output=True, text=True
+    ).stdout
+    return dict(re.findall(r"^\s*(\S+): (.+?)\s*$", listing, flags=re.MULTILINE))
+
+
+def equivalent_mutants() -> dict[str, str]:
+    """Name -> why it cannot change a result, from the committed list (``name  # reason`` per line)."""
+    reasons = {}
+    for line in EQUIVALENT.read_text().splitlines():
+        name, _, reason = line.partition("#")
+        if name.strip():
+            reasons[name.strip()] = reason.strip()
+    return reasons
+
+
+def module_of(mutant: str) -> str:
+    return mutant.split(".")[1]
+
+
+def table(status: dict[str, str], equivalent: dict[str, str]) -> list[str]:
+    counts: dict[str, Counter] = {}
+    for name, state in status.items():
+        kind = "equivalent" if name in equivalent and state == "survived" else state
+        counts.setdefault(module_of(name), Counter())[kind] += 1
+    lines = [
+        "| module | mutants | killed | timeout | survived | no test reaches it | equivalent (listed) | kill rate |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for module, count in sorted(counts.items()):
+        detected = count["killed"] + count["timeout"]
+        judged = sum(count.values()) - count["equivalent"]
+        rate = detected / judged if judged else 1.0
+        lines.append(
+            f"| {module} | {sum(count.values())} | {count['killed']} | {count['timeout']} | {count['survived']}"
+            f" | {count['no tests']} | {count['equivalent']} | {rate:.1%}{'' if rate >= GOAL else ' (below goal)'} |"
+        )
+    return lines
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--report", action="store_true", help="only summarize the last run")
+    parser.add_argument("--children", type=int, default=2)
+    args = parser.parse_args()
+    if not args.report:
+        run_mutmut(args.children)
+    status, equivalent = statuses(), equivalent_mutants()
+    stale = sorted(name for name in equivalent if status.get(name) != "survived")
+    survivors = sorted(name for name, state in status.items() if state in ("survived", "no tests"))
+    lines = [
+        "# Mutation testing (`python benchmarks/mutation.py`)",
+        "",
+        f"mutmut over the method modules, against the fast tests ({', '.join(fast_tests())}).",
+        "Kill rate = (killed + timeout) / (all mutants - listed equivalent ones); a mutant no fast test",
+        f"reaches counts as a survivor. Goal: at least {GOAL:.0%} in every module.",
+        "",
+        *table(status, equivalent),
+        "",
+        f"Survivors not listed as equivalent: {len([s for s in survivors if s not in equivalent])}"
+        " (`mutmut show NAME` prints one).",
+    ]
+    if stale:
+        lines += ["", "Listed as equivalent but not a survivor of this run (the list is stale):", *stale]
+    OUT.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
