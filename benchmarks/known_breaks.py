@@ -12,6 +12,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from mutation import fast_tests
+
 BREAKS = [
     ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
     ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
@@ -46,14 +48,7 @@ BREAKS = [
 ]
 
 TIMEOUT_S = 300  # the fast tests take under a minute; a break that hangs them is reported, not waited for
-FAST_TESTS = [
-    "tests/test_units.py",
-    "tests/test_forms.py",
-    "tests/test_extension.py",
-    "tests/test_diagnosis_rules.py",
-    "tests/test_report.py",
-    "tests/test_tables.py",
-]
+FAST_TESTS = fast_tests()  # the list in pyproject.toml's [tool.mutmut], shared with the mutation benchmark
 
 
 def main() -> int:

@@ -11,6 +11,7 @@ and the mutants no fast test reaches, count against it. Writes ``benchmarks/resu
 """
 
 import argparse
+import ast
 import os
 import re
 import shutil
@@ -58,6 +59,49 @@ def equivalent_mutants() -> dict[str, str]:
     return reasons
 
 
+# Survivors that cannot change a result, recognized by their one changed line (the rest are listed by name).
+RULES = {
+    "dtype": "only the dtype of a conversion changes, and every caller passes numbers of that dtype"
+    " (where one may not, integers are tested: the out-of-fold splice, the CV target, the fold ids)",
+    "nan spelling": 'float("NAN") is float("nan")',
+}
+DTYPE = re.compile(r"(dtype=)?\b(float|int|object)\b(?=\s*\))")
+
+
+def rule_of(original: str, mutated: str) -> str | None:
+    def squeeze(text: str) -> str:
+        return re.sub(r"\s+", "", text)
+
+    for match in DTYPE.finditer(original):
+        keyword = match[1] or ""
+        for replacement in (f"{keyword}None", ""):
+            if squeeze(original[: match.start()] + replacement + original[match.end() :]) == squeeze(mutated):
+                return "dtype"
+    if mutated == original.replace('"nan"', '"NAN"') != original:
+        return "nan spelling"
+    return None
+
+
+def changed_lines(module: Path) -> dict[str, tuple[str, str]]:
+    """Mutant name -> (original line, mutated line) for mutants that change one line, read from mutmut's copy."""
+    source = module.read_text()
+    functions = {
+        node.name: ast.get_source_segment(source, node).splitlines()
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.FunctionDef) and "__mutmut_" in node.name
+    }
+    changes = {}
+    for name, lines in functions.items():
+        stem, _, tag = name.rpartition("__mutmut_")
+        original = functions.get(f"{stem}__mutmut_orig")
+        if tag == "orig" or original is None or len(original) != len(lines):
+            continue
+        diff = [(a.strip(), b.strip()) for a, b in zip(original[1:], lines[1:]) if a != b]
+        if len(diff) == 1:
+            changes[f"hybridtwin.{module.stem}.{name}"] = diff[0]
+    return changes
+
+
 def module_of(mutant: str) -> str:
     return mutant.split(".")[1]
 
@@ -65,10 +109,10 @@ def module_of(mutant: str) -> str:
 def table(status: dict[str, str], equivalent: dict[str, str]) -> list[str]:
     counts: dict[str, Counter] = {}
     for name, state in status.items():
-        kind = "equivalent" if name in equivalent and state == "survived" else state
+        kind = "equivalent" if name in equivalent else state
         counts.setdefault(module_of(name), Counter())[kind] += 1
     lines = [
-        "| module | mutants | killed | timeout | survived | no test reaches it | equivalent (listed) | kill rate |",
+        "| module | mutants | killed | timeout | survived | no fast test reaches it | equivalent | kill rate |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for module, count in sorted(counts.items()):
@@ -89,26 +133,50 @@ def main() -> int:
     args = parser.parse_args()
     if not args.report:
         run_mutmut(args.children)
-    status, equivalent = statuses(), equivalent_mutants()
-    stale = sorted(name for name in equivalent if status.get(name) != "survived")
-    survivors = sorted(name for name, state in status.items() if state in ("survived", "no tests"))
+    status = statuses()
+    changes = {
+        name: change
+        for module in (ROOT / "mutants" / "hybridtwin").glob("*.py")
+        for name, change in changed_lines(module).items()
+    }
+    listed = equivalent_mutants()
+    equivalent = {name: reason for name, reason in listed.items() if status.get(name) == "survived"}
+    for name, state in status.items():
+        rule = rule_of(*changes[name]) if state == "survived" and name in changes else None
+        if rule:
+            equivalent.setdefault(name, RULES[rule])
+    stale = sorted(name for name in listed if status.get(name) != "survived")
+    survivors = sorted(
+        name for name, state in status.items() if state in ("survived", "no tests") and name not in equivalent
+    )
     lines = [
         "# Mutation testing (`python benchmarks/mutation.py`)",
         "",
         f"mutmut over the method modules, against the fast tests ({', '.join(fast_tests())}).",
-        "Kill rate = (killed + timeout) / (all mutants - listed equivalent ones); a mutant no fast test",
-        f"reaches counts as a survivor. Goal: at least {GOAL:.0%} in every module.",
+        "Kill rate = (killed + timeout) / (all mutants - equivalent ones); a mutant no fast test",
+        f"reaches counts as a survivor. Goal: at least {GOAL:.0%} in every module. Equivalent mutants, each with",
+        "its reason: `mutation_equivalent.md`; the survivors to work on: `mutation_survivors.md`.",
         "",
         *table(status, equivalent),
-        "",
-        f"Survivors not listed as equivalent: {len([s for s in survivors if s not in equivalent])}"
-        " (`mutmut show NAME` prints one).",
     ]
     if stale:
         lines += ["", "Listed as equivalent but not a survivor of this run (the list is stale):", *stale]
     OUT.write_text("\n".join(lines) + "\n")
+    write_listing(
+        OUT.with_name("mutation_equivalent.md"), "Equivalent mutants", sorted(equivalent), changes, equivalent
+    )
+    write_listing(OUT.with_name("mutation_survivors.md"), "Surviving mutants", survivors, changes, status)
     print("\n".join(lines))
     return 0
+
+
+def write_listing(path: Path, title: str, names, changes, notes) -> None:
+    """One line per mutant: its name, the changed line (where it changes one) and a note (a reason or a status)."""
+    rows = [f"# {title} (`python benchmarks/mutation.py`)", ""]
+    for name in names:
+        before, after = changes.get(name, ("(several lines)", ""))
+        rows.append(f"- `{name}`: {notes[name]}  \n  `{before}` -> `{after}`")
+    path.write_text("\n".join(rows) + "\n")
 
 
 if __name__ == "__main__":

@@ -53,10 +53,7 @@ def batch_means(values, n_blocks: int, min_blocks: int) -> np.ndarray:
     """
     means = block_means(values, n_blocks)
     while len(means) // 2 >= min_blocks and lag1_correlation(means) >= 2.0 / np.sqrt(len(means)):
-        longer = block_means(values, len(means) // 2)
-        if len(longer) >= len(means):  # the blocks cannot grow any more
-            break
-        means = longer
+        means = block_means(values, len(means) // 2)
     return means
 
 

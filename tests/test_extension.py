@@ -45,6 +45,16 @@ def test_a_missing_cause_column_contributes_nothing():
     np.testing.assert_allclose(model.predict(without_b), model.offset_ + terms["a"])
 
 
+def test_each_missing_column_is_said_and_the_other_terms_still_count(caplog):
+    model = DiscrepancyExtension((LINEAR_A, LINEAR_B)).fit(FRAME, 1.0 + 2.0 * A - 3.0 * B)
+    only_b = FRAME[["b"]]  # the first term's column is missing, the second's is all there is
+    terms = model.contributions(only_b)
+    np.testing.assert_allclose(terms["a"], 0.0)
+    np.testing.assert_allclose(terms["b"], model.contributions(FRAME)["b"])
+    assert "no column ('a',) here: the a term is set to its mean (0)" in caplog.text
+    assert model.to_dict()["format"] == "hybridtwin.DiscrepancyExtension/1"
+
+
 def test_a_term_fitted_to_a_step_is_held_beyond_the_fitted_values():
     x = RNG.uniform(0, 1, 4000)
     frame = pd.DataFrame({"shim": x})

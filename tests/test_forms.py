@@ -204,3 +204,37 @@ def test_a_causes_unit_comes_from_the_config_or_its_name_and_reaches_the_descrip
     assert step.describe("die_temp_c", "mm") == "step of +5 mm at die_temp_c = 45.5"
     line = forms.Linear().fit(np.array([0.0, 1.0, 2.0]), np.array([0.0, 2.0, 4.0]))
     assert line.describe("rp02_mpa", "mm", "MPa") == "linear: +2 mm per MPa of rp02_mpa"
+
+
+# ------------------------------------------------------------------ descriptions in the causes' own units
+
+
+def test_every_description_carries_the_causes_unit_and_its_numbers():
+    quadratic = forms.Quadratic().fit(X, (X - 7.0) ** 2)  # the vertex away from the data's centre (5)
+    assert quadratic.describe("t", "mm", "°C") == "quadratic in t, vertex at 7 °C"
+    sigmoid = forms.Sigmoid().fit(X, 1.0 - 6.0 / (1.0 + np.exp(-(X - 5.0) / 0.8)))
+    assert sigmoid.describe("T", "mm", "°C") == "saturating change of -6 mm around T = 5 °C (10-90% over 3.51 °C)"
+    monotone = forms.Monotone().fit(X, -(X**2) / 20)  # strictly falling: every knot differs
+    assert monotone.describe("strokes", "mm", "strokes") == "monotone trend of -5 mm over strokes 0..10 strokes"
+
+
+def test_a_flat_parabola_is_described_without_a_vertex():
+    flat = forms.form_from_dict(
+        {"form": "quadratic", "center": 0.0, "low": 0.0, "high": 1.0, "coefficients": [0, 1, 0]}
+    )
+    assert flat.describe("t", "mm") == "quadratic"
+
+
+def test_group_offsets_of_no_rows_are_no_rows():
+    form = forms.Group().fit(np.array(["a", "b"]), np.array([1.0, 2.0]))
+    assert form.predict(np.array([], dtype=str)).shape == (0,)
+
+
+def test_a_pair_is_extrapolated_only_where_its_product_goes_on_beyond_the_inner_values():
+    rng = np.random.default_rng(4)
+    ab = rng.uniform(0, 1, (3000, 2))
+    low, high = np.quantile(ab, forms.EDGE_QUANTILES, axis=0)
+    noise = rng.normal(0, 0.05, 3000)
+    assert forms.extrapolates("product", ab, 4 * ab[:, 0] * ab[:, 1] + noise)
+    held = np.clip(ab, low, high)  # the same interaction, flat beyond the inner quantiles of each column
+    assert not forms.extrapolates("product", ab, 4 * held[:, 0] * held[:, 1] + noise)

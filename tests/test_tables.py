@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from hybridtwin.crossval import splice_out_of_fold
-from hybridtwin.tables import dataset_summary, production_predictions
+from hybridtwin.tables import dataset_summary, matched_summary, production_predictions, sensitivity_table
 
 
 def test_splice_puts_out_of_fold_values_at_the_training_rows():
@@ -89,3 +89,90 @@ def test_table1_names_each_data_set_its_role_and_size():
         }
     )
     pd.testing.assert_frame_equal(table, expected)
+
+
+def test_production_predictions_columns_are_the_contract_outside_tools_read():
+    residuals = pd.DataFrame(
+        {"measured": [5.0], "pred_surrogate": [4.0], "pred_surrogate_std": [0.1], "residual_approx": [1.0]}
+    )
+    support = pd.DataFrame({"in_support": [False], "knn_distance": [3.0]})
+    table = production_predictions(
+        residuals,
+        support,
+        np.array([0.5]),
+        np.array([0.25]),
+        pd.DataFrame({"row": [], "pred_residual_oof": []}),
+        pd.DataFrame({"row": [0], "pred_residual_oof": [0.75]}),
+    )
+    expected = pd.DataFrame(
+        {
+            "row": [0],
+            "in_support": [False],
+            "knn_distance": [3.0],
+            "measured": [5.0],
+            "pred_surrogate": [4.0],
+            "pred_surrogate_std": [0.1],
+            "residual_approx": [1.0],
+            "pred_residual": [0.5],
+            "pred_hybrid": [4.5],
+            "pred_hybrid_gated": [4.0],
+            "pred_hybrid_unfiltered": [4.25],
+            "pred_hybrid_oof": [4.5],  # never trained on this row: the final model
+            "pred_hybrid_unfiltered_oof": [4.75],
+        }
+    )
+    pd.testing.assert_frame_equal(table, expected)
+
+
+def test_matched_cases_table_by_hand():
+    _, cases = matched_summary([10.0, 12.0], [9.0, 12.5], [9.5, 11.0], [0.5, 1.0], [True, False])
+    expected = pd.DataFrame(
+        {
+            "measured": [10.0, 12.0],
+            "simulated": [9.0, 12.5],
+            "pred_surrogate": [9.5, 11.0],
+            "pred_hybrid": [10.0, 12.0],
+            "pred_hybrid_gated": [10.0, 11.0],
+            "true_residual": [1.0, -0.5],
+            "pred_residual": [0.5, 1.0],
+            "error_simulation": [1.0, -0.5],
+            "error_surrogate": [0.5, 1.0],
+            "error_hybrid": [0.0, 0.0],
+            "error_hybrid_gated": [0.0, 1.0],
+        }
+    )
+    pd.testing.assert_frame_equal(cases, expected)
+
+
+def test_one_matched_case_has_no_spread_rather_than_none():
+    summary, _ = matched_summary([10.0], [9.0], [9.5], [0.5], [True])
+    assert (summary["error_std"] == 0.0).all() and (summary["n"] == 1).all()
+
+
+@pytest.mark.parametrize(
+    "table, says",
+    [
+        (
+            lambda: matched_summary([10.0], [9.0], [9.5], [0.5], [True])[0],
+            "matched cases only (never used for training or tuning); error = reference - prediction",
+        ),
+        (
+            lambda: sensitivity_table(
+                pd.DataFrame(
+                    {
+                        "measured": [1.0, 2.0],
+                        "in_support": [True, False],
+                        "pred_surrogate": [1.0, 1.0],
+                        "pred_hybrid_oof": [1.0, 1.0],
+                        "pred_hybrid_unfiltered_oof": [1.0, 1.0],
+                    }
+                )
+            ),
+            "measured production values; residual models scored out-of-fold on their own training rows (a split "
+            "other than the tuning's), the final filtered model on out-of-support rows; both residual models use "
+            "the hyperparameters tuned on in-support rows",
+        ),
+    ],
+)
+def test_each_table_says_on_what_data_it_was_computed(table, says):
+    assert (table()["evaluated_on"] == says).all()

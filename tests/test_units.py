@@ -14,7 +14,15 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from hybridtwin import residual, tables
-from hybridtwin.crossval import cross_validate, cv_table, fold_ids, folds, splits_of, written_splits
+from hybridtwin.crossval import (
+    cross_validate,
+    cv_table,
+    fold_ids,
+    folds,
+    splice_out_of_fold,
+    splits_of,
+    written_splits,
+)
 from hybridtwin.gate import DoEStandardizer, InputColumnsError, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
 from hybridtwin.surrogate import GPRSurrogate
@@ -253,7 +261,8 @@ def test_written_fold_ids_give_back_the_very_split():
     rows = np.arange(23) * 3  # in-support rows of a larger log
     written = pd.DataFrame({"row": rows, "fold": ids})
     assert all(np.array_equal(a[1], b[1]) for a, b in zip(written_splits(written, rows), split, strict=True))
-    with pytest.raises(ValueError, match="other rows"):
+    assert ids.dtype.kind == "i" and sorted(set(ids.tolist())) == [1, 2, 3, 4, 5]  # written as 1..5, not 1.0
+    with pytest.raises(ValueError, match="the written folds belong to other rows than these: rerun the residual CV"):
         written_splits(written, rows + 1)
 
 
@@ -315,6 +324,18 @@ def test_cross_validate_never_trains_on_test_rows():
         assert model.predicted_ == set(test.tolist())
         np.testing.assert_allclose(oof[test], y[train].mean())
     assert set().union(*(m.predicted_ for m in FITTED)) == set(range(n))
+
+
+def test_cross_validate_keeps_fractions_of_an_integer_target_and_numbers_folds_from_one():
+    FITTED.clear()
+    per_fold, oof = cross_validate(Recorder(), np.arange(4.0)[:, None], np.array([1, 2, 3, 10]), n_folds=4, seed=0)
+    np.testing.assert_allclose(oof, [15 / 3, 14 / 3, 13 / 3, 6 / 3])  # a measured column read as integers
+    assert per_fold.columns.tolist() == ["fold", "n_train", "n_test", "rmse", "mae", "bias", "r2"]
+    assert per_fold["fold"].tolist() == [1, 2, 3, 4]
+
+
+def test_splice_keeps_fractions_put_into_an_integer_column():
+    np.testing.assert_array_equal(splice_out_of_fold(np.array([10, 11, 12]), [1], [-1.5]), [10.0, -1.5, 12.0])
 
 
 def test_cross_validate_oof_leave_one_out_by_hand():
