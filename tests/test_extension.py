@@ -89,6 +89,30 @@ def test_gain_table_scores_each_region_on_its_rows():
     assert row["out_of_support_over_noise"] == pytest.approx(np.sqrt(2.0) / 2.0)
     assert table.set_index("model").loc["extended", "rmse_out_of_support"] == 0.0
     assert (table["n_in_support"] == 2).all() and (table["n_out_of_support"] == 2).all()
+    assert row["rmse_truth_in_support_cv"] == pytest.approx(np.sqrt((1 + 0) / 2))  # truth 2, 3 against 1, 3
+    assert (table["n_matched"] == 1).all()
+    assert (
+        table["evaluated_on"]
+        .iloc[0]
+        .endswith("matched cases (never used for fitting); truth = the demo's noise-free plant")
+    )
+
+
+def test_gain_table_counts_each_region_and_says_what_it_scored():
+    inside = np.array([True, False, False])
+    table = gain_table(np.zeros(3), {"m": np.ones(3)}, inside, np.zeros(2), {"m": np.zeros(2)}, noise=None)
+    row = table.iloc[0]
+    assert (row["n_in_support"], row["n_out_of_support"], row["n_matched"]) == (1, 2, 2)
+    assert "rmse_truth_out_of_support" not in table.columns
+    assert row["evaluated_on"] == (
+        "measured production values: in support out-of-fold (K-fold CV; the causes and forms were chosen on all "
+        "in-support rows, only their parameters refitted per fold), out of support with models fitted on all "
+        "in-support rows (never on these rows); matched cases (never used for fitting)"
+    )
+    without_noise = gain_table(
+        np.zeros(3), {"m": np.ones(3)}, inside, np.zeros(2), {"m": np.zeros(2)}, truth=np.zeros(3)
+    )
+    assert np.isnan(without_noise["out_of_support_over_noise"].iloc[0])
 
 
 def evaluation_by_hand():

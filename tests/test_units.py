@@ -93,6 +93,10 @@ def test_standardizer_constant_column_raises():
         DoEStandardizer().fit(np.array([[1.0, 5.0], [2.0, 5.0], [3.0, 5.0]]))
 
 
+def test_standardizer_of_two_rows_scales_by_their_spread():
+    np.testing.assert_allclose(DoEStandardizer().fit(np.array([[0.0, 0.0], [2.0, 4.0]])).scale_, [2**0.5, 8**0.5])
+
+
 def test_standardizer_of_one_row_centres_without_scaling():
     std = DoEStandardizer().fit(np.array([[1.0, 2.0]]))  # no spread to scale by: unit scale, not NaN
     np.testing.assert_array_equal(std.scale_, [1.0, 1.0])
@@ -178,6 +182,7 @@ def test_gate_round_trip():
     np.testing.assert_array_equal(copy.predict(query), gate.predict(query))
     np.testing.assert_allclose(copy.distance(query), gate.distance(query), rtol=0, atol=1e-12)
     assert copy.threshold_ == gate.threshold_
+    assert copy.get_params() == {"k": 3, "percentile": 90, "standardizer": None}
     assert 0 < gate.predict(query).sum() < len(query)
 
 
@@ -195,7 +200,7 @@ NAMED_DOE = pd.DataFrame({"die_temp": [20.0, 40.0, 60.0, 30.0, 50.0, 45.0], "bla
 @pytest.mark.parametrize("model", [DoEStandardizer(), KNNSupportGate(k=2, percentile=80)])
 def test_columns_are_matched_by_name_in_any_order_and_after_a_round_trip(model):
     """A what-if table with the columns in another order gets the same answer; the names survive the file."""
-    fitted = model.fit(NAMED_DOE)
+    fitted = clone(model).fit(NAMED_DOE)  # a fresh estimator: the parameter is shared by every run in a process
     answer = (lambda m, X: m.transform(X)) if isinstance(model, DoEStandardizer) else (lambda m, X: m.distance(X))
     query = pd.DataFrame({"blank_mm": [1.0, 1.5], "die_temp": [35.0, 80.0]})  # reversed order
     expected = answer(fitted, query[["die_temp", "blank_mm"]].to_numpy())
@@ -234,6 +239,8 @@ def test_gate_needs_one_row_more_than_k_and_counts_the_threshold_as_inside():
 def test_gate_sklearn_clone():
     params = clone(KNNSupportGate(k=3, percentile=90)).get_params()
     assert params == {"k": 3, "percentile": 90, "standardizer": None}
+    # the paper's gate: five neighbours, the 95th percentile of the DoE's own distances
+    assert KNNSupportGate().get_params() == {"k": 5, "percentile": 95.0, "standardizer": None}
 
 
 # --------------------------------------------------------------------------- 4. CV without leakage
@@ -352,7 +359,9 @@ def test_cross_validate_oof_leave_one_out_by_hand():
 def test_cv_table_summarizes_folds_and_pools_the_out_of_fold_predictions():
     per_fold = pd.DataFrame({"rmse": [1.0, 3.0], "mae": [1.0, 2.0], "bias": [0.5, -0.5], "r2": [0.25, 0.75]})
     y, oof = np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 2.0, 3.0, 2.0])  # errors -1, 0, 0, 2
-    row = cv_table(per_fold, y, oof, model="m", evaluated_on="the DoE").iloc[0]
+    table = cv_table(per_fold, y, oof, model="m", evaluated_on="the DoE")
+    assert table.columns.tolist()[-4:] == ["pooled_r2", "pooled_rmse", "pooled_mae", "evaluated_on"]
+    row = table.iloc[0]
     assert (row["model"], row["n"], row["folds"], row["evaluated_on"]) == ("m", 4, 2, "the DoE")
     assert (row["cv_rmse_mean"], row["cv_rmse_std"]) == pytest.approx((2.0, math.sqrt(2.0)))  # sample std
     assert (row["cv_mae_mean"], row["cv_mae_std"]) == pytest.approx((1.5, math.sqrt(0.5)))
