@@ -214,8 +214,8 @@ def test_every_description_carries_the_causes_unit_and_its_numbers():
     assert quadratic.describe("t", "mm", "°C") == "quadratic in t, vertex at 7 °C"
     sigmoid = forms.Sigmoid().fit(X, 1.0 - 6.0 / (1.0 + np.exp(-(X - 5.0) / 0.8)))
     assert sigmoid.describe("T", "mm", "°C") == "saturating change of -6 mm around T = 5 °C (10-90% over 3.51 °C)"
-    monotone = forms.Monotone().fit(X, -(X**2) / 20)  # strictly falling: every knot differs
-    assert monotone.describe("strokes", "mm", "strokes") == "monotone trend of -5 mm over strokes 0..10 strokes"
+    monotone = forms.Monotone().fit(X, -np.sqrt(X))  # falls fastest at the start: first and last knots count
+    assert monotone.describe("strokes", "mm", "strokes") == "monotone trend of -3.16 mm over strokes 0..10 strokes"
 
 
 def test_a_flat_parabola_is_described_without_a_vertex():
@@ -238,3 +238,7 @@ def test_a_pair_is_extrapolated_only_where_its_product_goes_on_beyond_the_inner_
     assert forms.extrapolates("product", ab, 4 * ab[:, 0] * ab[:, 1] + noise)
     held = np.clip(ab, low, high)  # the same interaction, flat beyond the inner quantiles of each column
     assert not forms.extrapolates("product", ab, 4 * held[:, 0] * held[:, 1] + noise)
+
+
+def test_group_offsets_are_never_extrapolated():
+    assert not forms.extrapolates("group", np.repeat(["a", "b"], 200), np.repeat([0.0, 5.0], 200))

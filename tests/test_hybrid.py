@@ -3,6 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import qmc
 
 from hybridtwin import hybrid
 
@@ -37,6 +38,12 @@ def test_support_samples_lie_in_the_box_and_pass_the_gate():
     assert samples[:, 0].max() > 0.45 and samples[:, 1].min() < 10.5 and samples[:, 1].max() > 19.5
 
 
+def test_support_samples_are_the_first_in_support_draws_of_a_seeded_latin_hypercube():
+    samples = hybrid.sample_in_support(HalfPlaneGate(), LOW, HIGH, n_samples=300, seed=3)
+    draws = qmc.scale(qmc.LatinHypercube(d=2, seed=np.random.default_rng(3)).random(4 * 300), LOW, HIGH)
+    np.testing.assert_array_equal(samples, draws[draws[:, 0] < 0.5][:300])  # one batch of 4 n draws
+
+
 def test_support_samples_are_seeded():
     first = hybrid.sample_in_support(HalfPlaneGate(), LOW, HIGH, n_samples=50, seed=7)
     np.testing.assert_array_equal(first, hybrid.sample_in_support(HalfPlaneGate(), LOW, HIGH, n_samples=50, seed=7))
@@ -56,7 +63,10 @@ def test_no_support_samples_asked_gives_an_empty_table_of_the_right_width():
 
 def test_a_support_too_small_to_sample_is_an_error_that_says_what_to_change():
     gate = type("Empty", (), {"predict": lambda self, X: np.asarray(X)[:, 0] < 0.0})()
-    with pytest.raises(RuntimeError, match=r"only 0 of 10 support samples found in 2000 draws"):
+    with pytest.raises(
+        RuntimeError,
+        match=r"only 0 of 10 support samples found in 2000 draws; lower synthetic.n_samples or raise gate.percentile",
+    ):
         hybrid.sample_in_support(gate, LOW, HIGH, n_samples=10, seed=1, max_draws=2000)
 
 
