@@ -21,6 +21,7 @@ LINEAR_A, LINEAR_B = Term(Cause("a", "input", ("a",)), "linear"), Term(Cause("b"
 def test_offset_alone_is_the_mean_residual():
     model = DiscrepancyExtension(()).fit(FRAME, 4.0 + 0.0 * A)
     assert model.offset_ == pytest.approx(4.0)
+    assert model.predict(FRAME).shape == (len(FRAME),)  # one value per row, not one number
     np.testing.assert_allclose(model.predict(FRAME), 4.0)
 
 
