@@ -87,8 +87,9 @@ def rule_of(original: str, mutated: str) -> str | None:
 def changed_lines(module: Path) -> dict[str, tuple[str, str]]:
     """Mutant name -> (original line, mutated line) for mutants that change one line, read from mutmut's copy."""
     source = module.read_text()
+    lines = source.splitlines()
     functions = {
-        node.name: ast.get_source_segment(source, node).splitlines()
+        node.name: lines[node.lineno - 1 : node.end_lineno]
         for node in ast.walk(ast.parse(source))
         if isinstance(node, ast.FunctionDef) and "__mutmut_" in node.name
     }
