@@ -1,7 +1,8 @@
 """Mutation testing of the method modules against the fast tests: the share of mutants each module's tests kill.
 
-    python benchmarks/mutation.py            # a fresh run (about 10 minutes on 2 cores, run alone)
-    python benchmarks/mutation.py --report   # only re-read the results of the last run in mutants/
+    python benchmarks/mutation.py                    # a fresh run (about an hour on 2 cores, run alone)
+    python benchmarks/mutation.py --modules forms    # rerun one module's mutants, keep the others' verdicts
+    python benchmarks/mutation.py --report           # only re-read the results of the last run in mutants/
 
 mutmut (its settings: ``[tool.mutmut]`` in pyproject.toml) copies the package to ``mutants/``, changes one
 operator, constant or call at a time, and runs the fast tests that reach the changed function. A mutant

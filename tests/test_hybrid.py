@@ -9,10 +9,13 @@ from hybridtwin import hybrid
 
 
 class HalfPlaneGate:
-    """In support where x0 < 0.5; distance = x0 (a stand-in whose answers are known by hand)."""
+    """In support where x0 < ``edge``; distance = x0 (a stand-in whose answers are known by hand)."""
+
+    def __init__(self, edge=0.5):
+        self.edge = edge
 
     def predict(self, X):
-        return np.asarray(X)[:, 0] < 0.5
+        return np.asarray(X)[:, 0] < self.edge
 
     def distance(self, X):
         return np.asarray(X)[:, 0].copy()
@@ -52,8 +55,7 @@ def test_support_samples_are_seeded():
 
 def test_support_samples_keep_drawing_until_enough_pass():
     # 2% of the box is in support: one batch of max(4 n, 1000) = 1000 draws gives about 20 of the 150 asked for
-    gate = type("Narrow", (), {"predict": lambda self, X: np.asarray(X)[:, 0] < 0.02})()
-    samples = hybrid.sample_in_support(gate, LOW, HIGH, n_samples=150, seed=1)
+    samples = hybrid.sample_in_support(HalfPlaneGate(edge=0.02), LOW, HIGH, n_samples=150, seed=1)
     assert len(samples) == 150 and (samples[:, 0] < 0.02).all()
 
 
@@ -62,12 +64,11 @@ def test_no_support_samples_asked_gives_an_empty_table_of_the_right_width():
 
 
 def test_a_support_too_small_to_sample_is_an_error_that_says_what_to_change():
-    gate = type("Empty", (), {"predict": lambda self, X: np.asarray(X)[:, 0] < 0.0})()
     with pytest.raises(
         RuntimeError,
         match=r"only 0 of 10 support samples found in 2000 draws; lower synthetic.n_samples or raise gate.percentile",
     ):
-        hybrid.sample_in_support(gate, LOW, HIGH, n_samples=10, seed=1, max_draws=2000)
+        hybrid.sample_in_support(HalfPlaneGate(edge=0.0), LOW, HIGH, n_samples=10, seed=1, max_draws=2000)
 
 
 def test_synthetic_frame_by_hand():
