@@ -104,41 +104,16 @@ class Sigmoid(Form):
 
     def fit(self, x, y):
         x, y = np.asarray(x, float), np.asarray(y, float)
-        low, high = np.percentile(x, [2, 98])
-        spread = (high - low) or 1.0
-        thresholds = np.percentile(x, np.linspace(5, 95, 19))
-        widths = spread * np.array([0.01, 0.03, 0.08, 0.2, 0.5])
-        best = None
-        for width in widths:
-            S = _logistic((x[:, None] - thresholds[None, :]) / width)
-            s_mean = S.mean(axis=0)
-            centered = S - s_mean
-            var = (centered**2).sum(axis=0)
-            amplitude = np.where(var > 0, centered.T @ (y - y.mean()) / np.where(var > 0, var, 1), 0.0)
-            sse = ((y - y.mean()) ** 2).sum() - amplitude**2 * var
-            j = int(np.argmin(sse))
-            if best is None or sse[j] < best[0]:
-                best = (sse[j], y.mean() - amplitude[j] * s_mean[j], amplitude[j], thresholds[j], width)
-        _, intercept, amplitude, threshold, width = best
-        scale = spread
-
-        def residuals(theta):
-            return theta[0] + theta[1] * _logistic((x - theta[2] * scale) / (np.exp(theta[3]) * scale)) - y
-
-        def jacobian(theta):
-            width_ = np.exp(theta[3]) * scale
-            z = (x - theta[2] * scale) / width_
-            s = _logistic(z)
-            ds = theta[1] * s * (1.0 - s)
-            return np.column_stack([np.ones_like(x), s, -ds * scale / width_, -ds * z])
-
+        low, high, scale = sigmoid_range(x)
+        intercept, amplitude, threshold, width = sigmoid_grid_start(x, y)
         start = [intercept, amplitude, threshold / scale, np.log(width / scale)]
         bounds = (
             [-np.inf, -np.inf, low / scale - 0.5, np.log(1e-3)],
             [np.inf, np.inf, high / scale + 0.5, np.log(5.0)],
         )
-        start[2] = float(np.clip(start[2], bounds[0][2], bounds[1][2]))
-        solution = least_squares(residuals, start, jac=jacobian, bounds=bounds, x_scale="jac", max_nfev=100)
+        solution = least_squares(
+            sigmoid_residuals, start, sigmoid_jacobian, bounds, x_scale="jac", max_nfev=100, args=(x, y, scale)
+        )
         self.intercept, self.amplitude = float(solution.x[0]), float(solution.x[1])
         self.threshold, self.width = float(solution.x[2] * scale), float(np.exp(solution.x[3]) * scale)
         return self
@@ -151,6 +126,50 @@ class Sigmoid(Form):
             f"saturating change of {self.amplitude:+.3g} {unit} around {column} = {_with(self.threshold, x_unit)} "
             f"(10-90% over {_with(SIGMOID_SPAN * self.width, x_unit, '.3g')})"
         )
+
+
+def sigmoid_range(x):
+    """The 2nd and 98th percentiles of ``x`` and their spread (1 where they coincide): the sigmoid's scale.
+    Its threshold stays within half a spread of that range."""
+    low, high = np.percentile(x, [2, 98])
+    return low, high, (high - low) or 1.0
+
+
+SIGMOID_WIDTH_SHARES = (0.01, 0.03, 0.08, 0.2, 0.5)  # the start's widths, as shares of the spread
+
+
+def sigmoid_grid_start(x, y):
+    """The least-squares sigmoid over a grid: thresholds at the 5th, 10th, .., 95th percentiles of ``x``,
+    widths :data:`SIGMOID_WIDTH_SHARES` of its spread; intercept and amplitude exact for each.
+    The start of :meth:`Sigmoid.fit`, which picks the basin the exact fit converges in."""
+    _, _, spread = sigmoid_range(x)
+    thresholds = np.percentile(x, np.linspace(5, 95, 19))
+    best = None
+    for width in spread * np.array(SIGMOID_WIDTH_SHARES):
+        S = _logistic((x[:, None] - thresholds[None, :]) / width)
+        s_mean = S.mean(axis=0)
+        centered = S - s_mean
+        var = (centered**2).sum(axis=0)
+        amplitude = np.where(var > 0, centered.T @ (y - y.mean()) / np.where(var > 0, var, 1), 0.0)
+        sse = ((y - y.mean()) ** 2).sum() - amplitude**2 * var
+        j = int(np.argmin(sse))
+        if best is None or sse[j] < best[0]:
+            best = (sse[j], y.mean() - amplitude[j] * s_mean[j], amplitude[j], thresholds[j], width)
+    return best[1:]
+
+
+def sigmoid_residuals(theta, x, y, scale):
+    """Sigmoid minus data at theta = (intercept, amplitude, threshold / scale, log(width / scale))."""
+    return theta[0] + theta[1] * _logistic((x - theta[2] * scale) / (np.exp(theta[3]) * scale)) - y
+
+
+def sigmoid_jacobian(theta, x, y, scale):
+    """The derivatives of :func:`sigmoid_residuals` by theta, one column each."""
+    width = np.exp(theta[3]) * scale
+    z = (x - theta[2] * scale) / width
+    s = _logistic(z)
+    ds = theta[1] * s * (1.0 - s)
+    return np.column_stack([np.ones_like(x), s, -ds * scale / width, -ds * z])
 
 
 class Step(Form):
@@ -333,7 +352,8 @@ def edge_split(x):
     columns = np.asarray(x, float).reshape(len(x), -1)
     low, high = np.quantile(columns, EDGE_QUANTILES, axis=0)
     inner = np.all((columns >= low) & (columns <= high), axis=1)
-    if inner.sum() < MIN_EDGE_ROWS or (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
+    # the outer rows are the fewer (at most a tenth of the rows beyond each quantile, per column)
+    if (~inner).sum() < MIN_EDGE_ROWS or np.any(high <= low):
         return None
     return inner, low, high
 
@@ -358,7 +378,7 @@ def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
     model = fit_form(name, x[inner], y[inner])
     outer = x[~inner]
     extrapolated = model.predict(outer)
-    held = model.predict(np.clip(outer, low, high) if x.ndim > 1 else np.clip(outer, low[0], high[0]))
+    held = model.predict(np.clip(outer, low, high))
     return block_p_value(y[~inner] - held, extrapolated - held, n_blocks, min_blocks=MIN_EDGE_BLOCKS) < EDGE_ALPHA
 
 

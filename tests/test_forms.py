@@ -24,8 +24,10 @@ def test_quadratic_fits_exact_data_and_holds_its_ends():
     form = forms.Quadratic().fit(X, (X - 4.0) ** 2)
     assert form.n_params == 2
     np.testing.assert_allclose(form.predict(X), (X - 4.0) ** 2, atol=1e-9)
-    assert form.predict([12.0]) == pytest.approx([36.0])  # held at x = 10: curvature is not extrapolated
+    # held at x = 10 and at 0: curvature is not extrapolated
+    assert form.predict([12.0, -2.0]) == pytest.approx([36.0, 16.0])
     assert form.describe("t", "mm") == "quadratic in t, vertex at 4"
+    assert forms.Quadratic().fit(X, 2.0 * (X - 3.0) ** 2).describe("t", "mm") == "quadratic in t, vertex at 3"
 
 
 def test_sigmoid_recovers_threshold_width_and_amplitude():
@@ -35,6 +37,43 @@ def test_sigmoid_recovers_threshold_width_and_amplitude():
     assert (form.amplitude, form.threshold, form.width) == pytest.approx((-6.0, 5.0, 0.8), abs=1e-3)
     assert form.intercept == pytest.approx(1.0, abs=1e-3)
     assert form.describe("T", "mm") == "saturating change of -6 mm around T = 5 (10-90% over 3.51)"
+
+
+SPREAD = 9.6  # the 2nd to 98th percentile of X: 0.2 .. 9.8
+
+
+@pytest.mark.parametrize("share", [0.01, 0.03, 0.08, 0.2, 0.5])
+def test_the_sigmoids_start_is_exact_on_its_grid(share):
+    # threshold at X's median (a grid percentile), width one of the grid's shares of the spread
+    y = 1.0 + 3.0 * (1.0 / (1.0 + np.exp(-(X - 5.0) / (share * SPREAD))))
+    assert forms.sigmoid_range(X) == pytest.approx((0.2, 9.8, SPREAD))
+    assert forms.sigmoid_grid_start(X, y) == pytest.approx((1.0, 3.0, 5.0, share * SPREAD), abs=1e-9)
+
+
+def test_a_sigmoid_near_the_low_end_is_found_there():
+    y = 2.0 - 4.0 / (1.0 + np.exp(-(X - 1.0) / 0.3))
+    form = forms.Sigmoid().fit(X, y)
+    fitted = (form.intercept, form.amplitude, form.threshold, form.width)
+    assert fitted == pytest.approx((2.0, -4.0, 1.0, 0.3), abs=1e-3)
+
+
+def test_the_sigmoids_jacobian_is_its_residuals_derivative():
+    theta, scale = np.array([0.5, -2.0, 0.45, np.log(0.1)]), SPREAD
+    y = np.sin(X)
+    numeric = np.column_stack(
+        [
+            (forms.sigmoid_residuals(theta + step, X, y, scale) - forms.sigmoid_residuals(theta - step, X, y, scale))
+            / 2e-6
+            for step in np.eye(4) * 1e-6
+        ]
+    )
+    np.testing.assert_allclose(forms.sigmoid_jacobian(theta, X, y, scale), numeric, atol=1e-6)
+
+
+@pytest.mark.parametrize("y,threshold", [(np.exp(0.5 * X), 9.8 + SPREAD / 2), (np.log1p(X), 0.2 - SPREAD / 2)])
+def test_a_sigmoids_threshold_stays_within_half_a_spread_of_the_data(y, threshold):
+    # a convex rise (or a concave one) wants a sigmoid centred far beyond the data: it is held at the bound
+    assert forms.Sigmoid().fit(X, y).threshold == pytest.approx(threshold)
 
 
 def test_step_at_threshold_includes_the_threshold():
@@ -48,9 +87,64 @@ def test_step_at_threshold_includes_the_threshold():
     assert form.describe("shim", "mm") == f"step of +3 mm at shim = {form.threshold:.4g}"
 
 
+def test_a_trusted_range_holds_a_form_at_both_of_its_ends():
+    form = forms.Linear().fit(X, 2.0 + 0.5 * X)
+    form.trust_low, form.trust_high = 1.0, 4.0
+    assert form.predict([-5.0, 2.0, 9.0]) == pytest.approx([2.5, 3.0, 4.0])
+
+
+def test_small_numbers_keep_lower_case_exponents():
+    tiny = X * 1e-6
+    step = forms.Step().fit(tiny, np.where(X >= 5.0, 4.0, 1.0))
+    assert step.describe("gap", "mm") == "step of +3 mm at gap = 4.95e-06"
+    sigmoid = forms.Sigmoid().fit(tiny, 1.0 / (1.0 + np.exp(-(X - 5.0) / 0.8)))
+    assert sigmoid.describe("gap", "mm") == "saturating change of +1 mm around gap = 5e-06 (10-90% over 3.51e-06)"
+
+
 def test_step_with_no_valid_split_is_flat():
     form = forms.Step().fit(np.ones(10), np.arange(10.0))
     assert form.jump == 0.0 and form.predict([1.0]) == pytest.approx([4.5])
+
+
+def test_step_with_no_split_leaving_enough_rows_on_each_side_is_flat_beyond_the_data():
+    form = forms.Step().fit(np.array([0.0, 1.0, 2.0]), np.array([0.0, 0.0, 9.0]), min_share=0.5)
+    assert (form.threshold, form.low, form.jump) == (3.0, 3.0, 0.0)
+
+
+def test_step_never_splits_between_equal_values():
+    form = forms.Step().fit(np.array([0.0, 1.0, 1.0, 2.0]), np.array([0.0, 0.0, 10.0, 10.0]), min_share=0.0)
+    assert form.threshold in (0.5, 1.5)
+
+
+@pytest.mark.parametrize("min_share,first_split", [(0.02, 2), (0.0, 1)])
+def test_step_keeps_the_smallest_share_it_allows_on_either_side(min_share, first_split):
+    # 100 rows (min_share 0.02: two per side) or 10 rows (at least one per side), the jump at the edge
+    for n in (100, 10):
+        x = np.arange(n, dtype=float)
+        low_edge = forms.Step().fit(x, np.where(x < first_split, 5.0, 0.0), min_share=min_share)
+        high_edge = forms.Step().fit(x, np.where(x >= n - first_split, 5.0, 0.0), min_share=min_share)
+        assert (low_edge.threshold, low_edge.jump) == (first_split - 0.5, -5.0)
+        assert (high_edge.threshold, high_edge.jump) == (n - first_split - 0.5, 5.0)
+    # a lone first part is no step where two are asked on each side: the split moves one part in
+    x = np.arange(100.0)
+    assert forms.Step().fit(x, np.where(x < 1, 5.0, 0.0), min_share=0.02).threshold == 1.5
+
+
+def test_step_finds_the_split_an_exhaustive_search_finds():
+    rng = np.random.default_rng(3)
+    x = rng.integers(0, 30, 400).astype(float)  # ties: a split lies between distinct values only
+    y = np.where(x >= 17, 2.0, 0.0) + rng.normal(0, 1.5, 400)
+
+    def sse(threshold):
+        above = x >= threshold
+        return sum(((y[side] - y[side].mean()) ** 2).sum() for side in (above, ~above))
+
+    values = np.unique(x)
+    candidates = (values[1:] + values[:-1]) / 2
+    best = candidates[np.argmin([sse(t) for t in candidates])]
+    form = forms.Step().fit(x, y, min_share=0.0)
+    assert form.threshold == best
+    assert form.low == pytest.approx(y[x < best].mean()) and form.jump == pytest.approx(y[x >= best].mean() - form.low)
 
 
 def test_monotone_picks_the_direction_that_fits_and_counts_its_jumps():
@@ -59,6 +153,13 @@ def test_monotone_picks_the_direction_that_fits_and_counts_its_jumps():
     np.testing.assert_allclose(form.predict(X), y)
     assert form.n_params == 5  # two jumps (place and height each) and the direction
     assert form.describe("strokes", "mm").startswith("monotone trend of -5 mm over strokes 0..10")
+
+
+def test_monotone_picks_a_falling_trend_whose_flat_fit_leaves_skewed_residuals():
+    y = np.where(X < 9.5, 0.0, -10.0)  # one drop at the end: the flat fit's residuals sum to a negative cube
+    form = forms.Monotone().fit(X, y)
+    np.testing.assert_allclose(form.predict(X), y)
+    assert form.describe("strokes", "mm") == "monotone trend of -10 mm over strokes 0..10"
 
 
 def test_monotone_is_silent_on_flat_data():
@@ -235,9 +336,47 @@ def test_a_pair_is_extrapolated_only_where_its_product_goes_on_beyond_the_inner_
     ab = rng.uniform(0, 1, (3000, 2))
     low, high = np.quantile(ab, forms.EDGE_QUANTILES, axis=0)
     noise = rng.normal(0, 0.05, 3000)
-    assert forms.extrapolates("product", ab, 4 * ab[:, 0] * ab[:, 1] + noise)
+    in_mm = ab * [1.0, 100.0] + [0.0, 100.0]  # columns of different ranges: each is held at its own edges
+    assert forms.extrapolates("product", in_mm, 4 * ab[:, 0] * ab[:, 1] + noise)
     held = np.clip(ab, low, high)  # the same interaction, flat beyond the inner quantiles of each column
-    assert not forms.extrapolates("product", ab, 4 * held[:, 0] * held[:, 1] + noise)
+    assert not forms.extrapolates("product", in_mm, 4 * held[:, 0] * held[:, 1] + noise)
+
+
+@pytest.mark.parametrize("parked_at", ["top", "bottom"])
+def test_a_setting_parked_at_its_limit_is_judged_on_its_one_edge(parked_at):
+    # a third of the parts run at the setting's limit: its edge rows all lie on the other side
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.uniform(0.0, 1.0, 700), np.ones(300)])
+    if parked_at == "bottom":
+        x = 1.0 - x
+    y = 3.0 * x + rng.normal(0, 0.05, 1000)
+    inner, low, high = forms.edge_split(x)
+    assert (~inner).sum() == 100
+    assert forms.extrapolates("linear", x, y)
+    assert not forms.extrapolates("linear", x, np.clip(y, 3.0 * low, 3.0 * high))
+
+
+@pytest.mark.parametrize(
+    "x,judged",
+    [
+        (np.arange(251.0), True),  # 25 rows beyond each quantile: 50 on the edges
+        (np.arange(241.0), False),  # 48 on the edges
+        (np.arange(101.0), False),  # plenty inside, 20 on the edges
+        (np.concatenate([np.zeros(920), np.linspace(1, 2, 80)]), False),  # the quantiles coincide: no inner stretch
+    ],
+)
+def test_the_edges_are_judged_only_with_fifty_rows_on_them(x, judged):
+    split = forms.edge_split(x)
+    assert (split is not None) == judged
+    if judged:
+        inner, low, high = split
+        assert (low, high) == (25.0, 225.0) and inner.sum() == 201  # both quantiles are inner values
+
+
+def test_a_pair_with_a_column_held_at_one_value_has_no_edges():
+    rng = np.random.default_rng(6)
+    a = rng.uniform(0, 1, 1000)
+    assert forms.edge_split(np.column_stack([a, np.where(a > 0.95, 1.0, 0.0)])) is None
 
 
 def test_group_offsets_are_never_extrapolated():
