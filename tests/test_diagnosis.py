@@ -1,0 +1,241 @@
+"""hybridtwin.diagnosis' plumbing, by hand: which columns become candidates, the settings from the config,
+the subsample, the summary later steps read, the joint held-out share, sums of squares between levels,
+the paired held-out test and the confounding notes."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin import diagnosis, forms
+from hybridtwin.causes import Cause
+from hybridtwin.crossval import folds
+from hybridtwin.diagnosis import Candidate, Settings
+
+
+def _plant_columns() -> pd.DataFrame:
+    stamps = pd.date_range("2026-03-02 06:00", periods=6, freq="h").strftime("%Y-%m-%d %H:%M")
+    return pd.DataFrame(
+        {
+            "drawin_mm": [1.0, 2, 3, 4, 5, 6],  # the target: excluded by the caller
+            "operator_note": [0.0, 1, 0, 1, 0, 1],  # excluded by the config
+            "die_temp_c": [40.0, 41, 42, 43, 44, 45],
+            "blank_holder_kn": [300.0, 310, 300, 310, 300, 310],  # two values: still a candidate
+            "shim_mm": [0.5, 0.6, 0.7, 0.5, 0.6, 0.7],
+            "press_id": [7.0] * 6,  # constant
+            "lube_gm2": [1.0, 1.0, np.nan, 1.0, 1.0, 1.0],  # one value and a blank: not constant, but blank
+            "spm": [12.0, 12, np.inf, 12, 13, 12],
+            "strokes": [100.0, 101, 102, 103, 104, 105],  # a number the model does not take
+            "time": stamps,
+            "coil": list("AABBCC"),  # three levels: at the limit of three
+            "note": list("uvwxyz"),  # six distinct texts: more than three
+        }
+    )
+
+
+def test_candidates_are_every_usable_column_and_the_pairs_of_inputs():
+    settings = Settings(max_levels=3, exclude=("operator_note",))
+    frame = _plant_columns()
+    candidates, skipped = diagnosis.build_candidates(
+        frame, ["die_temp_c", "blank_holder_kn", "shim_mm", "press_id"], ["drawin_mm"], settings
+    )
+    assert [c.cause for c in candidates] == [
+        Cause("die_temp_c", "input", ("die_temp_c",)),
+        Cause("blank_holder_kn", "input", ("blank_holder_kn",)),
+        Cause("shim_mm", "input", ("shim_mm",)),
+        Cause("strokes", "log", ("strokes",)),
+        Cause("time", "time", ("time",), "2026-03-02 06:00:00"),
+        Cause("coil", "group", ("coil",)),
+        Cause("die_temp_c*blank_holder_kn", "interaction", ("die_temp_c", "blank_holder_kn")),
+        Cause("die_temp_c*shim_mm", "interaction", ("die_temp_c", "shim_mm")),
+        Cause("blank_holder_kn*shim_mm", "interaction", ("blank_holder_kn", "shim_mm")),
+    ]
+    assert skipped == {
+        "press_id": "constant",
+        "lube_gm2": "missing or infinite values",
+        "spm": "missing or infinite values",
+        "note": "text with 6 distinct values (more than 3)",
+    }
+    np.testing.assert_allclose(candidates[4].values, [0, 1, 2, 3, 4, 5])  # elapsed hours
+    np.testing.assert_allclose(candidates[7].values, frame[["die_temp_c", "shim_mm"]].to_numpy())
+    without_pairs, _ = diagnosis.build_candidates(
+        frame, ["die_temp_c", "shim_mm"], ["drawin_mm"], Settings(max_levels=3, interactions=False)
+    )
+    assert "operator_note" in [c.name for c in without_pairs]  # only the config excluded it
+    assert not [c for c in without_pairs if c.kind == "interaction"]
+
+
+def test_a_candidate_keeps_its_origin():
+    candidate = Candidate.new("time", "time", np.arange(3.0), ("time",), origin="2026-03-02 06:00:00")
+    assert candidate.origin == "2026-03-02 06:00:00" and candidate.columns == ("time",)
+
+
+def test_settings_come_from_the_config_with_the_runs_folds_seed_and_units():
+    settings = Settings.from_config(
+        {"alpha": 0.05, "exclude": ["operator_note"]}, folds=3, seed=7, unit="deg", input_units={"t_c": "°C"}
+    )
+    assert settings == Settings(
+        folds=3, seed=7, alpha=0.05, exclude=("operator_note",), unit="deg", n_jobs=1, input_units=(("t_c", "°C"),)
+    )
+    assert Settings.from_config(None, folds=4, seed=1, unit="mm", n_jobs=2) == Settings(folds=4, seed=1, n_jobs=2)
+
+
+def _linear_plant(n: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 1, n)
+    return pd.DataFrame({"x": x, "row": np.arange(n, dtype=float)}), 5.0 + 4.0 * x + rng.normal(0, 0.3, n)
+
+
+def test_a_diagnosis_of_more_rows_than_it_takes_runs_on_a_seeded_sample_of_distinct_rows_in_order():
+    frame, residual = _linear_plant(400)
+    settings = Settings(max_rows=150, interactions=False, exclude=("row",))
+    result = diagnosis.diagnose(frame, residual, ["x"], [], settings, surrogate_std=0.1)
+    again = diagnosis.diagnose(frame, residual, ["x"], [], settings, surrogate_std=0.1)
+    assert result.n_rows == 150 and list(result.candidates) == ["x"]
+    kept = np.flatnonzero(np.isin(frame["x"], result.candidates["x"].values))
+    assert len(kept) == 150 and np.all(np.diff(kept) > 0)  # distinct rows, in their order
+    # the residual follows its rows, less the offset (their mean)
+    assert result.offset == pytest.approx(residual[kept].mean())
+    np.testing.assert_allclose(result.y, residual[kept] - residual[kept].mean())
+    np.testing.assert_array_equal(result.y, again.y)  # seeded
+    other = diagnosis.diagnose(frame, residual, ["x"], [], Settings(max_rows=150, seed=1, exclude=("row",)), 0.1)
+    assert not np.array_equal(other.y, result.y)
+
+
+def test_the_summary_holds_what_later_steps_read():
+    frame, residual = _linear_plant(600)
+    result = diagnosis.diagnose(frame[["x"]], residual, ["x"], [], Settings(interactions=False), surrogate_std=0.1)
+    summary = json.loads(json.dumps(diagnosis.summary_dict(result)))
+    assert list(summary) == [
+        "offset",
+        "offset_se",
+        "n_rows",
+        "residual_std",
+        "surrogate_std",
+        "min_effect",
+        "selected",
+        "aliases",
+        "explained_by",
+        "skipped",
+        "proxies",
+    ]
+    assert (summary["n_rows"], summary["surrogate_std"], summary["min_effect"]) == (600, 0.1, 0.1)
+    assert summary["offset"] == pytest.approx(residual.mean())
+    assert summary["residual_std"] == pytest.approx(np.std(residual - residual.mean()))
+    (chosen,) = summary["selected"]
+    assert list(chosen) == [
+        "name",
+        "kind",
+        "columns",
+        "form",
+        "origin",
+        "family",
+        "description",
+        "parameters",
+        "explained_share",
+        "effect_range",
+        "effect_std",
+        "p_value",
+    ]
+    assert (chosen["name"], chosen["kind"], chosen["columns"], chosen["form"]) == ("x", "input", ["x"], "linear")
+    assert (chosen["origin"], chosen["family"]) == (None, "linear")
+    assert forms.form_from_dict(chosen["parameters"]).slope == pytest.approx(4.0, abs=0.1)
+    assert chosen["description"].startswith("linear: +4")
+    assert summary["aliases"] == {"x": []} and summary["explained_by"] == {} and summary["skipped"] == {}
+
+
+def test_the_summary_names_the_cause_an_id_stands_for():
+    result = diagnosis.Diagnosis(
+        0.0, 0.1, 3, 1.0, 0.2, 0.2, pd.DataFrame({"cause": [], "description": []}), None, {}, {}
+    )
+    result.proxies = {"coil": ("rm_mpa", 0.8)}
+    assert diagnosis.summary_dict(result)["proxies"] == {"coil": {"cause": "rm_mpa", "share": 0.8}}
+
+
+def test_between_level_sums_of_squares_by_hand():
+    # level means a: 2 (two rows), b: 8 (one row); overall mean 4: 2 * (2 - 4)**2 + 1 * (8 - 4)**2
+    assert diagnosis.between_level_ss(np.array(list("aab")), [1.0, 3.0, 8.0]) == pytest.approx(24.0)
+
+
+def test_an_id_whose_levels_do_not_differ_is_nobodys_proxy():
+    levels = np.array(list("aabb"))
+    coil = diagnosis.Fit(Candidate.new("coil", "group", levels, ("coil",)), None, None, 1, 1, 0, 0, 0, 0)
+    lube = diagnosis.Fit(
+        Candidate.new("lube", "log", np.arange(4.0), ("lube",)),
+        forms.Linear().fit([0, 3], [0, 0.3]),
+        None,
+        1,
+        1,
+        0,
+        0,
+        0,
+        0,
+    )
+    assert diagnosis.proxy_share(coil, lube, np.array([0.1, -0.1, 0.1, -0.1])) == 0.0
+    # small differences between levels still count: 0.5 of the between-level sum of squares
+    y = np.array([0.2, 0.2, -0.2, -0.2])
+    half = diagnosis.Fit(
+        Candidate.new("lube", "log", y, ("lube",)),
+        forms.Linear().fit([0, 1], [0, 1 - 0.5**0.5]),
+        None,
+        1,
+        1,
+        0,
+        0,
+        0,
+        0,
+    )
+    assert diagnosis.proxy_share(coil, half, y) == pytest.approx(0.5)
+
+
+def test_the_joint_share_is_the_held_out_share_of_the_terms_fitted_together():
+    frame, residual = _linear_plant(500)
+    x, y = frame["x"].to_numpy(), residual - 2.0  # not centred: the terms' means and the fold means matter
+    settings = Settings(folds=5, seed=3)
+    fit = diagnosis.best_fit(Candidate.new("x", "input", x, ("x",)), y, settings)
+    held = diagnosis.held_out("linear", x, y, folds(len(y), 5, 3))  # a single slope: its own held-out fit
+    expected = 1.0 - np.mean((y - held) ** 2) / np.mean(y**2)
+    assert diagnosis.joint_share([fit], y, settings) == pytest.approx(expected)
+    assert 0.5 < expected < 1.0
+
+
+def _column_fit(name, kind, values, y):
+    return diagnosis.best_fit(Candidate.new(name, kind, values, (name,)), y, Settings(folds=5, seed=0))
+
+
+def test_a_better_held_out_fit_wins_only_between_columns_scored_on_their_own_values():
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0, 1, 2000)
+    y = 3.0 * x + rng.normal(0, 0.3, 2000)
+    y = y - y.mean()
+    strong = _column_fit("x", "input", x, y)
+    weak = _column_fit("ambient", "log", x + rng.normal(0, 0.5, 2000), y)
+    settings = Settings(folds=5, seed=0)
+    assert diagnosis.better_held_out(strong, weak, y, settings)
+    assert not diagnosis.better_held_out(weak, strong, y, settings)
+    coil = _column_fit("coil", "group", np.round(x * 20).astype(int).astype(str), y)
+    assert not diagnosis.better_held_out(coil, weak, y, settings)  # ids are left to the proxy rule
+    assert not diagnosis.better_held_out(strong, coil, y, settings)
+
+
+def test_a_near_copy_of_the_cause_is_an_alias_and_a_loose_neighbour_is_explained_by_it():
+    rng = np.random.default_rng(5)
+    n = 3000
+    temp = rng.uniform(30, 60, n)
+    frame = pd.DataFrame(
+        {
+            "die_temp_c": temp,
+            "die_temp_sensor_c": temp + rng.normal(0, 0.05, n),  # the same quantity, read twice
+            "hall_temp_c": 0.5 * temp + rng.normal(0, 3.0, n),  # follows the die, loosely
+        }
+    )
+    y = 0.4 * (temp - 45) + rng.normal(0, 0.5, n)
+    result = diagnosis.diagnose(frame, y, ["die_temp_c"], [], Settings(interactions=False), surrogate_std=0.2)
+    (chosen,) = [fit.candidate.name for fit in result.selected]
+    copy = ({"die_temp_c", "die_temp_sensor_c"} - {chosen}).pop()
+    assert result.aliases == {chosen: [copy]}
+    assert result.explained_by == {"hall_temp_c": chosen}
+    notes = result.table.set_index("cause")["note"]
+    assert notes[copy] == f"cannot be told apart from {chosen} in this data"
+    assert notes["hall_temp_c"] == f"explained by {chosen}: adds nothing once it is in"
