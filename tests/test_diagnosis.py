@@ -143,6 +143,32 @@ def test_the_summary_holds_what_later_steps_read():
     assert forms.form_from_dict(chosen["parameters"]).slope == pytest.approx(4.0, abs=0.1)
     assert chosen["description"].startswith("linear: +4")
     assert summary["aliases"] == {"x": []} and summary["explained_by"] == {} and summary["skipped"] == {}
+    # the causes table: every candidate, the chosen first, in the columns outside tools read
+    table = result.table
+    assert list(table.columns) == [
+        "rank",
+        "cause",
+        "kind",
+        "form",
+        "family",
+        "n_params",
+        "explained_share",
+        "conditional_share",
+        "effect_range",
+        "effect_std",
+        "p_value",
+        "significant",
+        "selected",
+        "description",
+        "note",
+    ]
+    row = table.iloc[0]
+    assert (row["rank"], row["cause"], row["kind"], row["form"], row["family"]) == (1, "x", "input", "linear", "linear")
+    assert (row["n_params"], row["significant"], row["selected"], row["note"]) == (1, True, True, "")
+    assert row["description"] == chosen["description"]
+    chosen_fit = result.selected[0]
+    assert (row["conditional_share"], row["p_value"]) == (chosen_fit.explained_share, chosen_fit.p_value)
+    assert (row["effect_range"], row["effect_std"]) == (chosen_fit.effect_range, chosen_fit.effect_std)
 
 
 def test_the_summary_names_the_cause_an_id_stands_for():
@@ -239,3 +265,132 @@ def test_a_near_copy_of_the_cause_is_an_alias_and_a_loose_neighbour_is_explained
     notes = result.table.set_index("cause")["note"]
     assert notes[copy] == f"cannot be told apart from {chosen} in this data"
     assert notes["hall_temp_c"] == f"explained by {chosen}: adds nothing once it is in"
+
+
+def _scored(name="x", kind="input", *, cv_mse=1.0, null_mse=4.0, score=-1.0, p_value=0.0, effect_std=1.0, n_params=1):
+    """A fit with the given scores (its form a slope of ``n_params`` parameters)."""
+    form = forms.Linear()
+    form.slope, form.intercept, form.n_params = 1.0, 0.0, n_params
+    values = np.arange(4.0)
+    return diagnosis.Fit(
+        Candidate.new(name, kind, values, (name,)), form, values, cv_mse, null_mse, score, p_value, 0.0, effect_std
+    )
+
+
+@pytest.mark.parametrize(
+    "changes,n_tests,significant",
+    [
+        ({}, 1, True),
+        ({"p_value": 0.008}, 1, True),  # below alpha = 0.01 over one test
+        ({"p_value": 0.008}, 0, True),  # no candidates counted: still over one test
+        ({"p_value": 0.01}, 1, False),  # at alpha: not below it
+        ({"p_value": 0.005}, 10, False),  # Bonferroni: 0.01 / 10
+        ({"p_value": 0.0009}, 10, True),
+        ({"score": 0.0}, 1, False),  # no better than no term, once its parameters are counted
+        ({"score": 0.5}, 1, False),
+        ({"effect_std": 0.5}, 1, False),  # no larger than the surrogate's own uncertainty
+        ({"effect_std": 0.5000001}, 1, True),
+    ],
+)
+def test_a_cause_is_significant_below_alpha_over_the_tests_with_a_negative_score_and_a_large_effect(
+    changes, n_tests, significant
+):
+    fit = _scored(**changes)
+    assert diagnosis.is_significant(fit, n_tests, Settings(alpha=0.01), min_effect=0.5) is significant
+
+
+def test_a_pair_that_is_no_interaction_is_never_significant():
+    fit = _scored()
+    fit.form = forms.Additive().fit(np.column_stack([np.arange(4.0), np.arange(4.0) ** 2]), np.arange(4.0))
+    assert not diagnosis.is_significant(fit, 1, Settings(), min_effect=0.0)
+
+
+@pytest.mark.parametrize(
+    "n_params,min_effect,null_mse,tolerance",
+    [
+        (1, 3.0, 90.0, 0.05),
+        (3, 3.0, 90.0, 0.05),  # a sigmoid is a closed form
+        (5, 3.0, 90.0, 0.1),  # a monotone trend: what the surrogate's error (3 mm) can account for, 9 / 90
+        (5, 1.0, 90.0, 0.05),  # but never less than the closed forms' margin
+    ],
+)
+def test_a_simpler_cause_may_explain_less_by_what_the_surrogates_error_accounts_for(
+    n_params, min_effect, null_mse, tolerance
+):
+    fit = _scored(n_params=n_params, null_mse=null_mse)
+    assert diagnosis.share_tolerance(fit, min_effect) == pytest.approx(tolerance)
+
+
+def test_predicting_the_same_is_a_share_within_the_tolerance_and_a_difference_below_the_least_effect():
+    reference = _scored(cv_mse=1.0, null_mse=4.0)  # explains 0.75
+    at_tolerance = _scored(cv_mse=1.2, null_mse=4.0)  # 0.70: 0.05 less, still the same
+    below = _scored(cv_mse=1.25, null_mse=4.0)
+    assert diagnosis.predicts_the_same(at_tolerance, reference, min_effect=0.1)
+    assert not diagnosis.predicts_the_same(below, reference, min_effect=0.1)
+    # predictions apart by +-1 alternately: a difference of std 1, not below a least effect of 1
+    apart = _scored()
+    apart.candidate = Candidate.new("x", "input", np.array([1.0, 0.0, 3.0, 2.0]), ("x",))
+    assert diagnosis.predicts_the_same(apart, reference, min_effect=1.0000001)
+    assert not diagnosis.predicts_the_same(apart, reference, min_effect=1.0)
+
+
+def test_the_best_scoring_column_is_named_for_an_id_and_only_an_id_has_one():
+    y = np.array([1.0, 1.0, -1.0, -1.0])
+    coil = diagnosis.Fit(Candidate.new("coil", "group", np.array(list("aabb")), ("coil",)), None, y, 1, 1, 0, 0, 0, 0)
+    lube = _scored("lube", "log", score=-2.0)
+    rm = _scored("rm", "input", score=-3.0)
+    for fit in (lube, rm):
+        fit.candidate = Candidate.new(fit.candidate.name, fit.candidate.kind, y, fit.candidate.columns)
+        fit.form = forms.Linear().fit(y, y)
+    assert diagnosis.physical_cause(coil, [coil, lube, rm], y, lambda fit: True) == (rm, pytest.approx(1.0))
+    assert diagnosis.physical_cause(lube, [coil, lube, rm], y, lambda fit: True) == (lube, 0.0)
+
+
+def test_a_fits_score_is_its_held_out_error_against_no_term_with_a_bic_penalty_in_any_unit():
+    rng = np.random.default_rng(9)
+    x = rng.uniform(0, 1, 1000)
+    y = 2.0 * x + rng.normal(0, 0.5, 1000)
+    y = y - y.mean()
+    candidate = Candidate.new("x", "input", x, ("x",))
+    fit = diagnosis.best_fit(candidate, y, Settings())
+    n = len(y)
+    assert fit.score == pytest.approx(n * np.log(fit.cv_mse / fit.null_mse) + fit.form.n_params * np.log(n))
+    assert fit.null_mse == pytest.approx(np.mean(y**2))
+    fitted = fit.form.predict(x)
+    assert (fit.effect_range, fit.effect_std) == pytest.approx((np.ptp(fitted), np.std(fitted)))
+    in_metres = diagnosis.best_fit(candidate, y / 1000.0, Settings())
+    assert in_metres.score == pytest.approx(fit.score) and in_metres.form.name == fit.form.name
+    noise = diagnosis.best_fit(candidate, rng.normal(0, 0.001, 1000), Settings())
+    assert noise.score > 0  # a millimetre of noise in metres is still noise
+
+
+def test_value_folds_hold_out_whole_stretches_of_values_and_few_levels_get_shuffled_folds():
+    settings = Settings(folds=2, seed=4)
+    values = np.arange(40.0)
+    splits = diagnosis.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
+    again = diagnosis.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(splits, again))  # seeded
+    # 4 bins per fold: eight stretches of five values, each held out whole, four in each fold
+    for _, test in splits:
+        stretches = np.unique(test // 5)
+        assert len(stretches) == 4 and len(test) == 20
+    five_levels = np.repeat(np.arange(5.0), 8)  # as many levels as folds: each level held out whole
+    for _, test in diagnosis.value_folds(Candidate.new("x", "input", five_levels, ("x",)), Settings(folds=5)):
+        assert len(np.unique(five_levels[test])) == 1
+    three_levels = np.repeat(np.arange(3.0), 10)  # fewer levels than folds: shuffled folds
+    shuffled = diagnosis.value_folds(Candidate.new("x", "input", three_levels, ("x",)), Settings(folds=5, seed=2))
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(shuffled, folds(30, 5, 2)))
+    coil = Candidate.new("coil", "group", np.array(list("ab") * 10), ("coil",))
+    assert all(
+        np.array_equal(a[1], b[1]) for a, b in zip(diagnosis.value_folds(coil, Settings(seed=2)), folds(20, 5, 2))
+    )
+
+
+def test_the_rules_fit_with_their_least_effect():
+    rng = np.random.default_rng(6)
+    x = rng.uniform(0, 1, 4000)
+    slope = 4.0 * x + 0.3 * np.tanh((x - 0.5) / 0.08) + rng.normal(0, 0.5, 4000)
+    candidate = Candidate.new("rp02", "input", x, ("rp02",))
+    rules = diagnosis.Rules(Settings(folds=5, seed=0, interactions=False), min_effect=1.0)
+    assert rules.best_fit(candidate, slope - slope.mean()).form.name == "linear"
+    assert rules.fit_all([candidate], slope - slope.mean())["rp02"].form.name == "linear"
