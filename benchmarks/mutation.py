@@ -2,6 +2,7 @@
 
     python benchmarks/mutation.py                    # a fresh run (about an hour on 2 cores, run alone)
     python benchmarks/mutation.py --modules forms    # rerun one module's mutants, keep the others' verdicts
+    python benchmarks/mutation.py --modules forms --survivors  # rerun its survivors only, after adding tests
     python benchmarks/mutation.py --report           # only re-read the results of the last run in mutants/
 
 mutmut (its settings: ``[tool.mutmut]`` in pyproject.toml) copies the package to ``mutants/``, changes one
@@ -36,11 +37,21 @@ def fast_tests() -> list[str]:
     return settings["pytest_add_cli_args_test_selection"]
 
 
-def run_mutmut(children: int, modules: list[str]) -> None:
-    """A fresh run of every mutant, or (``modules``) a rerun of those modules' mutants, the rest kept."""
+def run_mutmut(children: int, modules: list[str], survivors_only: bool = False) -> None:
+    """A fresh run of every mutant, or (``modules``) a rerun of those modules' mutants, the rest kept;
+    ``survivors_only``: of their last run's survivors only (valid while only tests were added since)."""
     if not modules:
         shutil.rmtree(ROOT / "mutants", ignore_errors=True)
-    command = ["mutmut", "run", "--max-children", str(children), *(f"hybridtwin.{module}.*" for module in modules)]
+    selection = [f"hybridtwin.{module}.*" for module in modules]
+    if survivors_only:
+        selection = [
+            name
+            for name, state in statuses().items()
+            if state in ("survived", "no tests") and module_of(name) in modules
+        ]
+        if not selection:
+            return
+    command = ["mutmut", "run", "--max-children", str(children), *selection]
     subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
 
 
@@ -67,6 +78,7 @@ RULES = {
     "dtype": "only the dtype of a conversion changes, and every caller passes numbers of that dtype"
     " (where one may not, integers are tested: the out-of-fold splice, the CV target, the fold ids)",
     "nan spelling": 'float("NAN") is float("nan")',
+    "debug message": "only the text or arguments of a debug-level log message change (logging never raises on them)",
 }
 DTYPE = re.compile(r"(dtype=)?\b(float|int|object)\b(?=\s*\))")
 
@@ -82,6 +94,8 @@ def rule_of(original: str, mutated: str) -> str | None:
                 return "dtype"
     if mutated == original.replace('"nan"', '"NAN"') != original:
         return "nan spelling"
+    if original.startswith("log.debug(") and mutated.startswith("log.debug("):
+        return "debug message"
     return None
 
 
@@ -138,9 +152,14 @@ def main() -> int:
     parser.add_argument("--report", action="store_true", help="only summarize the last run")
     parser.add_argument("--children", type=int, default=2)
     parser.add_argument("--modules", nargs="*", default=[], help="rerun only these modules' mutants (e.g. forms)")
+    parser.add_argument(
+        "--survivors", action="store_true", help="with --modules: rerun only their survivors (after adding tests)"
+    )
     args = parser.parse_args()
+    if args.survivors and not args.modules:
+        parser.error("--survivors needs --modules")
     if not args.report:
-        run_mutmut(args.children, args.modules)
+        run_mutmut(args.children, args.modules, args.survivors)
     status = statuses()
     changes = {
         name: change

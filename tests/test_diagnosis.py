@@ -394,3 +394,70 @@ def test_the_rules_fit_with_their_least_effect():
     rules = diagnosis.Rules(Settings(folds=5, seed=0, interactions=False), min_effect=1.0)
     assert rules.best_fit(candidate, slope - slope.mean()).form.name == "linear"
     assert rules.fit_all([candidate], slope - slope.mean())["rp02"].form.name == "linear"
+
+
+def _lubricated_coils(explained: float):
+    """Coils of 60 parts with a per-coil lubricant film whose effect makes ``explained`` of the coil offsets
+    (tests/test_diagnosis_rules.py), a shim setting and the hall's temperature that do nothing."""
+    from tests.test_diagnosis_rules import _coil_plant
+
+    frame, y = _coil_plant(explained)
+    frame["shim_mm"] = np.random.default_rng(3).uniform(0.4, 0.6, len(frame))
+    return frame, y
+
+
+def test_the_causes_table_says_why_each_candidate_was_not_chosen_and_lists_the_chosen_first():
+    frame, y = _lubricated_coils(explained=1.0)
+    result = diagnosis.diagnose(frame, y, ["lube", "shim_mm", "ambient"], [], Settings(), surrogate_std=0.2)
+    table = result.table.set_index("cause")
+    assert list(table.index) == [
+        "lube",
+        "lube*ambient",
+        "lube*shim_mm",
+        "coil",
+        "ambient",
+        "ambient*shim_mm",
+        "shim_mm",
+    ]
+    assert list(table["rank"]) == [1, 2, 3, 4, 5, 6, 7]
+    assert list(table["selected"]) == [True] + [False] * 6
+    assert list(table["significant"]) == [True] + [False] * 6
+    assert table["note"].to_dict() == {
+        "lube": "cannot be told apart from coil in this data",  # the lubricant is logged per coil
+        "lube*ambient": "a variant of a chosen cause's column: adds nothing beyond it",
+        "lube*shim_mm": "a variant of a chosen cause's column: adds nothing beyond it",
+        "coil": "cannot be told apart from lube in this data",
+        "ambient": "",
+        "ambient*shim_mm": "no interaction: the product does not beat the two main effects",
+        "shim_mm": "",
+    }
+    assert table.loc["ambient*shim_mm", "form"] == "additive"
+
+
+def test_an_id_named_for_a_quantity_says_so_where_it_is_not_chosen_itself():
+    frame, y = _lubricated_coils(explained=0.9)
+    result = diagnosis.diagnose(frame, y, ["lube"], [], Settings(interactions=False, max_causes=1), 0.2)
+    assert [fit.candidate.name for fit in result.selected] == ["lube"]
+    cause, share = result.proxies["coil"]
+    assert cause == "lube" and 0.85 < share < 0.95
+    assert result.table.set_index("cause").loc["coil", "note"] == (
+        f"an id that stands for lube: it accounts for {share:.0%} of the differences between its levels"
+    )
+
+
+def test_a_cause_whose_form_changes_once_the_others_are_in_reopens_the_choice_after_it():
+    # a saturation in temperature and a wear drift along strokes, with the die warming over the strokes:
+    # chosen second, the drift takes a bend of the temperature's term; with both in, it is a line again
+    rng = np.random.default_rng(8)
+    n = 4000
+    strokes = np.arange(n, dtype=float)
+    temp = 30 + 20 * strokes / n + rng.normal(0, 2, n)
+    y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 6.0 * strokes / n + rng.normal(0, 0.5, n)
+    frame = pd.DataFrame({"temp": temp, "strokes": strokes})
+    result = diagnosis.diagnose(frame, y, ["temp"], [], Settings(interactions=False), surrogate_std=0.25)
+    assert [(fit.candidate.name, fit.form.name) for fit in result.selected] == [
+        ("temp", "sigmoid"),
+        ("strokes", "linear"),
+    ]
+    drift = result.selected[1].form
+    assert drift.slope == pytest.approx(-6.0 / n, rel=0.1)
