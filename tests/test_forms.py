@@ -50,6 +50,24 @@ def test_the_sigmoids_start_is_exact_on_its_grid(share):
     assert forms.sigmoid_grid_start(X, y) == pytest.approx((1.0, 3.0, 5.0, share * SPREAD), abs=1e-9)
 
 
+def test_the_sigmoids_start_is_exact_on_a_few_points_too():
+    # twelve points and the widest grid width: the logistic's column varies by less than 1 in sum of squares
+    x = np.linspace(0.0, 10.0, 12)
+    _, _, spread = forms.sigmoid_range(x)
+    y = 1.0 + 3.0 / (1.0 + np.exp(-(x - np.median(x)) / (0.5 * spread)))
+    assert forms.sigmoid_grid_start(x, y) == pytest.approx((1.0, 3.0, np.median(x), 0.5 * spread), abs=1e-9)
+
+
+def test_a_sigmoid_of_a_setting_that_never_changed_is_flat_at_the_mean():
+    form = forms.Sigmoid().fit(np.full(20, 3.0), np.arange(20.0))
+    assert form.amplitude == 0.0 and form.predict([3.0]) == pytest.approx([9.5])
+
+
+def test_a_form_on_too_few_edge_rows_is_never_extrapolated():
+    x = np.linspace(0.0, 1.0, 200)  # 40 rows beyond the inner quantiles
+    assert not forms.extrapolates("linear", x, 3.0 * x)
+
+
 def test_a_sigmoid_near_the_low_end_is_found_there():
     y = 2.0 - 4.0 / (1.0 + np.exp(-(X - 1.0) / 0.3))
     form = forms.Sigmoid().fit(X, y)
@@ -130,10 +148,11 @@ def test_step_keeps_the_smallest_share_it_allows_on_either_side(min_share, first
     assert forms.Step().fit(x, np.where(x < 1, 5.0, 0.0), min_share=0.02).threshold == 1.5
 
 
-def test_step_finds_the_split_an_exhaustive_search_finds():
+@pytest.mark.parametrize("level", [0.0, -5.0])
+def test_step_finds_the_split_an_exhaustive_search_finds(level):
     rng = np.random.default_rng(3)
     x = rng.integers(0, 30, 400).astype(float)  # ties: a split lies between distinct values only
-    y = np.where(x >= 17, 2.0, 0.0) + rng.normal(0, 1.5, 400)
+    y = level + np.where(x >= 17, 2.0, 0.0) + rng.normal(0, 1.5, 400)
 
     def sse(threshold):
         above = x >= threshold
