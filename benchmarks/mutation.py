@@ -167,12 +167,12 @@ def main() -> int:
         for name, change in changed_lines(module).items()
     }
     listed = equivalent_mutants()
-    equivalent = {name: reason for name, reason in listed.items() if status.get(name) == "survived"}
+    equivalent = {name: reason for name, reason in listed.items() if status.get(name) in ("survived", "no tests")}
     for name, state in status.items():
         rule = rule_of(*changes[name]) if state == "survived" and name in changes else None
         if rule:
             equivalent.setdefault(name, RULES[rule])
-    stale = sorted(name for name in listed if status.get(name) != "survived")
+    stale = sorted(name for name in listed if status.get(name) not in ("survived", "no tests"))
     survivors = sorted(
         name for name, state in status.items() if state in ("survived", "no tests") and name not in equivalent
     )

@@ -461,3 +461,56 @@ def test_a_cause_whose_form_changes_once_the_others_are_in_reopens_the_choice_af
     ]
     drift = result.selected[1].form
     assert drift.slope == pytest.approx(-6.0 / n, rel=0.1)
+
+
+class Fixed(forms.Form):
+    """A form that predicts given values: the rule under test sees only names, parameters and predictions."""
+
+    def __init__(self, name, values, n_params, width=1.0):
+        self.name, self.values, self.n_params, self.width = name, np.asarray(values, float), n_params, width
+
+    def _predict(self, x):
+        return self.values
+
+
+def _predicting(form_name, values, n_params, *, kind="input", score=-1.0, width=1.0, cv_mse=1.0):
+    x = np.arange(4.0)
+    return diagnosis.Fit(
+        Candidate.new("x", kind, x, ("x",)), Fixed(form_name, values, n_params, width), x, cv_mse, 4.0, score, 0, 0, 0
+    )
+
+
+SAME, APART = [0.0, 1.0, 2.0, 3.0], [3.0, 0.0, 3.0, 0.0]
+
+
+@pytest.mark.parametrize("match_at", [1, 2])
+def test_a_closed_form_that_matches_a_winning_trend_goes_ahead_of_it(match_at):
+    trend = _predicting("monotone", SAME, 5)
+    others = [_predicting("linear", APART, 1), _predicting("quadratic", APART, 2), _predicting("step", APART, 2)]
+    others[match_at - 1] = _predicting("sigmoid", SAME, 3)
+    fits = [trend, *others]
+    reordered = diagnosis._named_form_first(fits, min_effect=0.5)
+    assert reordered == [others[match_at - 1], trend] + [fit for fit in others if fit is not others[match_at - 1]]
+    assert diagnosis._named_form_first([others[0], trend], min_effect=0.5) == [others[0], trend]  # no trend first
+
+
+@pytest.mark.parametrize("kind,moved", [("input", True), ("log", True), ("time", True), ("interaction", False)])
+def test_a_sigmoid_wider_than_its_data_gives_way_to_a_simpler_form_that_predicts_the_same(kind, moved):
+    # the values span 3: a change of 4.39 widths over more than 3 shows no saturation in the data
+    sigmoid = _predicting("sigmoid", SAME, 3, kind=kind, width=0.7)
+    as_many = _predicting("quadratic", SAME, 3, kind=kind)  # the same, but not simpler
+    fewer_apart = _predicting("step", APART, 2, kind=kind)  # simpler, but not the same
+    slope = _predicting("linear", SAME, 1, kind=kind)
+    fits = [sigmoid, as_many, fewer_apart, slope]
+    expected = [slope, sigmoid, as_many, fewer_apart] if moved else fits
+    assert diagnosis._unseen_saturation_last(fits, 0.5, sigmoid.candidate) == expected
+    assert diagnosis._unseen_saturation_last([sigmoid, slope], 0.5, sigmoid.candidate)[0] is (
+        slope if moved else sigmoid
+    )
+
+
+def test_a_sigmoid_whose_change_fits_inside_its_data_stays():
+    narrow = _predicting("sigmoid", SAME, 3, width=3.0 / forms.SIGMOID_SPAN)  # 10-90% over exactly the span
+    slope = _predicting("linear", SAME, 1)
+    assert diagnosis._unseen_saturation_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
+    assert diagnosis._unseen_saturation_last([], 0.5, narrow.candidate) == []
