@@ -12,6 +12,7 @@ from hybridtwin import diagnosis, forms
 from hybridtwin.causes import Cause
 from hybridtwin.crossval import folds
 from hybridtwin.diagnosis import Candidate, Settings
+from tests.test_diagnosis_rules import _coil_plant, warming_die
 
 
 def _plant_columns() -> pd.DataFrame:
@@ -399,8 +400,6 @@ def test_the_rules_fit_with_their_least_effect():
 def _lubricated_coils(explained: float):
     """Coils of 60 parts with a per-coil lubricant film whose effect makes ``explained`` of the coil offsets
     (tests/test_diagnosis_rules.py), a shim setting and the hall's temperature that do nothing."""
-    from tests.test_diagnosis_rules import _coil_plant
-
     frame, y = _coil_plant(explained)
     frame["shim_mm"] = np.random.default_rng(3).uniform(0.4, 0.6, len(frame))
     return frame, y
@@ -448,11 +447,8 @@ def test_an_id_named_for_a_quantity_says_so_where_it_is_not_chosen_itself():
 def test_a_cause_whose_form_changes_once_the_others_are_in_reopens_the_choice_after_it():
     # a saturation in temperature and a wear drift along strokes, with the die warming over the strokes:
     # chosen second, the drift takes a bend of the temperature's term; with both in, it is a line again
-    rng = np.random.default_rng(8)
-    n = 4000
-    strokes = np.arange(n, dtype=float)
-    temp = 30 + 20 * strokes / n + rng.normal(0, 2, n)
-    y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 6.0 * strokes / n + rng.normal(0, 0.5, n)
+    temp, strokes, y = warming_die(drift=6.0, temp_noise=2.0)
+    n = len(y)
     frame = pd.DataFrame({"temp": temp, "strokes": strokes})
     result = diagnosis.diagnose(frame, y, ["temp"], [], Settings(interactions=False), surrogate_std=0.25)
     assert [(fit.candidate.name, fit.form.name) for fit in result.selected] == [

@@ -239,14 +239,19 @@ def test_a_sigmoid_that_saturates_beyond_the_data_gives_way_to_a_slope():
     assert fit.form.name in ("step", "sigmoid")  # a change the data show stays a change
 
 
+def warming_die(drift: float, temp_noise: float, n: int = 4000):
+    """A saturation of 8 mm in die temperature and a wear drift of ``drift`` mm along the strokes, the die
+    warming over the strokes (scattered by ``temp_noise``): temperature, strokes, residual."""
+    rng = np.random.default_rng(8)
+    strokes = np.arange(n, dtype=float)
+    temp = 30 + 20 * strokes / n + rng.normal(0, temp_noise, n)
+    return temp, strokes, 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - drift * strokes / n + rng.normal(0, 0.5, n)
+
+
 def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     # a saturation in temperature and a wear drift along strokes that runs with temperature: fitted
     # alone, the temperature's term bends into a parabola; with the drift in, it is the sigmoid again
-    rng = np.random.default_rng(8)
-    n = 4000
-    strokes = np.arange(n, dtype=float)
-    temp = 30 + 20 * strokes / n + rng.normal(0, 4, n)
-    y = 8.0 / (1 + np.exp(-(temp - 42) / 2.0)) - 4.0 * strokes / n + rng.normal(0, 0.5, n)
+    temp, strokes, y = warming_die(drift=4.0, temp_noise=4.0)
     y -= y.mean()
     by_name = {
         "temp": Candidate.new("temp", "input", temp, ("temp",)),
