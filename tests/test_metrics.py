@@ -1,11 +1,12 @@
-"""hybridtwin.metrics beyond the paper's indicators (those: test_units.py): empty inputs, lag-1 correlation."""
+"""hybridtwin.metrics beyond the paper's indicators (those: test_units.py): empty inputs, lag-1 correlation, the block
+t-test and its batch means."""
 
 import warnings
 
 import numpy as np
 import pytest
 
-from hybridtwin.metrics import bias, lag1_correlation, mae, r2, rmse
+from hybridtwin.metrics import batch_means, bias, block_p_value, lag1_correlation, mae, r2, rmse
 
 
 @pytest.mark.parametrize("metric", [rmse, mae, bias, r2])
@@ -24,3 +25,23 @@ def test_lag1_correlation_by_hand():
 
 def test_constant_values_are_uncorrelated():
     assert lag1_correlation([3.0, 3.0, 3.0]) == 0.0
+
+
+def test_block_test_counts_blocks_not_rows():
+    y = np.ones(40)
+    prediction = np.r_[np.ones(20), np.zeros(20)]  # gain 1 in the first block, 0 in the second
+    # block means [1, 0]: t = 0.5 / (0.7071 / sqrt 2) = 1 with 1 degree of freedom
+    assert block_p_value(y, prediction, n_blocks=2) == pytest.approx(0.25)
+    # a t-test over the 40 rows would call this highly significant
+    assert block_p_value(y, np.ones(40), n_blocks=2) == 0.0
+    assert block_p_value(y, np.zeros(40), n_blocks=2) == 1.0
+
+
+def test_batch_means_lengthen_blocks_while_their_means_stay_correlated():
+    values = np.r_[np.ones(200), -np.ones(200)]
+    # 40 blocks: 20 of +1, 20 of -1 (lag-1 correlation 0.95); halved to 20, 10, then 5 blocks of 80 rows:
+    # [1, 1, 0, -1, -1], lag-1 correlation (1 + 0 + 0 + 1) / 4 = 0.5 below 2 / sqrt(5)
+    np.testing.assert_allclose(batch_means(values, 40, min_blocks=5), [1, 1, 0, -1, -1])
+    assert len(batch_means(values, 40, min_blocks=10)) == 10  # never fewer than asked
+    alternating = np.repeat(np.tile([1.0, -1.0], 20), 20)  # neighbouring block means anti-correlated
+    assert len(batch_means(alternating, 40, min_blocks=5)) == 40
