@@ -27,6 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 EQUIVALENT = ROOT / "benchmarks" / "mutation_equivalent.txt"
 OUT = ROOT / "benchmarks" / "results" / "mutation.md"
 GOAL = 0.85
+UNKILLED = ("survived", "no tests")  # mutmut's states of a mutant no fast test failed on
 # forked test processes must not inherit a parent's OpenMP thread team: it hangs them (every mutant timed out)
 SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -44,11 +45,7 @@ def run_mutmut(children: int, modules: list[str], survivors_only: bool = False) 
         shutil.rmtree(ROOT / "mutants", ignore_errors=True)
     selection = [f"hybridtwin.{module}.*" for module in modules]
     if survivors_only:
-        selection = [
-            name
-            for name, state in statuses().items()
-            if state in ("survived", "no tests") and module_of(name) in modules
-        ]
+        selection = [name for name, state in statuses().items() if state in UNKILLED and module_of(name) in modules]
         if not selection:
             return
     command = ["mutmut", "run", "--max-children", str(children), *selection]
@@ -167,15 +164,13 @@ def main() -> int:
         for name, change in changed_lines(module).items()
     }
     listed = equivalent_mutants()
-    equivalent = {name: reason for name, reason in listed.items() if status.get(name) in ("survived", "no tests")}
+    equivalent = {name: reason for name, reason in listed.items() if status.get(name) in UNKILLED}
     for name, state in status.items():
         rule = rule_of(*changes[name]) if state == "survived" and name in changes else None
         if rule:
             equivalent.setdefault(name, RULES[rule])
-    stale = sorted(name for name in listed if status.get(name) not in ("survived", "no tests"))
-    survivors = sorted(
-        name for name, state in status.items() if state in ("survived", "no tests") and name not in equivalent
-    )
+    stale = sorted(name for name in listed if status.get(name) not in UNKILLED)
+    survivors = sorted(name for name, state in status.items() if state in UNKILLED and name not in equivalent)
     lines = [
         "# Mutation testing (`python benchmarks/mutation.py`)",
         "",

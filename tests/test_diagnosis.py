@@ -12,7 +12,7 @@ from hybridtwin import diagnosis, forms
 from hybridtwin.causes import Cause
 from hybridtwin.crossval import folds
 from hybridtwin.diagnosis import Candidate, Settings
-from tests.test_diagnosis_rules import _coil_plant, warming_die
+from tests.test_diagnosis_rules import coil_plant, warming_die
 
 
 def _plant_columns() -> pd.DataFrame:
@@ -400,7 +400,7 @@ def test_the_rules_fit_with_their_least_effect():
 def _lubricated_coils(explained: float):
     """Coils of 60 parts with a per-coil lubricant film whose effect makes ``explained`` of the coil offsets
     (tests/test_diagnosis_rules.py), a shim setting and the hall's temperature that do nothing."""
-    frame, y = _coil_plant(explained)
+    frame, y = coil_plant(explained)
     frame["shim_mm"] = np.random.default_rng(3).uniform(0.4, 0.6, len(frame))
     return frame, y
 

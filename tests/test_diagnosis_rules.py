@@ -85,7 +85,7 @@ def test_the_causes_are_described_in_the_targets_unit():
     assert result.table.loc[0, "description"] == "linear: +0.3026 deg per ° of angle"
 
 
-def _coil_plant(explained: float, seed: int = 1):
+def coil_plant(explained: float, seed: int = 1):
     """Coils of 60 parts; a per-coil lubricant film with an effect, and coil offsets nothing logged explains."""
     rng = np.random.default_rng(seed)
     n_coils, per_coil = 60, 60
@@ -101,7 +101,7 @@ def _coil_plant(explained: float, seed: int = 1):
 
 
 def test_an_id_stands_for_the_quantity_that_explains_most_of_its_levels():
-    frame, y = _coil_plant(explained=1.0)
+    frame, y = coil_plant(explained=1.0)
     result = _diagnose(frame, y)
     assert [f.candidate.name for f in result.selected] == ["lube"]
     # coil and lube predict the same: the simpler column is named, the id reported beside it
@@ -109,7 +109,7 @@ def test_an_id_stands_for_the_quantity_that_explains_most_of_its_levels():
 
 
 def test_an_id_stays_as_a_second_cause_where_its_remainder_is_significant():
-    frame, y = _coil_plant(explained=0.75)
+    frame, y = coil_plant(explained=0.75)
     result = _diagnose(frame, y)
     assert [f.candidate.name for f in result.selected] == ["lube", "coil"]
     assert result.proxies["coil"][0] == "lube"
@@ -117,7 +117,7 @@ def test_an_id_stays_as_a_second_cause_where_its_remainder_is_significant():
 
 
 def test_an_id_that_nothing_explains_is_named_itself():
-    frame, y = _coil_plant(explained=0.0)
+    frame, y = coil_plant(explained=0.0)
     result = _diagnose(frame, y)
     assert result.selected[0].candidate.name == "coil"
     assert result.selected[0].form.name == "group"
