@@ -2,7 +2,10 @@
 
 The causes and their forms come from the diagnosis; their few parameters are
 refitted here on the in-support rows (by backfitting when there are several).
-The extended hybrid adds an XGBoost model of what the extension leaves over.
+The extended hybrid adds an XGBoost model of what the extension leaves over. Out of the support it
+stands only where it beat the paper's hybrid on the measured parts of the choosing blocks
+(:func:`guard_out_of_support`): a wrong cause, or trees that carry less of the surrogate's error
+once a term took the effect, must never make the paper's method worse where it matters most.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from . import forms
 from .causes import Term
 from .crossval import splice_out_of_fold
 from .files import in_support
+from .metrics import rmse
 
 log = logging.getLogger(__name__)
 
@@ -96,6 +100,29 @@ class Models:
 
     extension: DiscrepancyExtension
     remainder: object  # XGBoost model of residual - extension
+    out_of_support: bool = True  # whether the extended hybrid stands out of the support (the guard's choice)
+
+
+def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
+    """The guard's choice: the extended hybrid stands out of the support unless the paper's hybrid has the
+    lower RMSE against the measured values of the ``choosing`` out-of-support parts (no such part: it stands).
+
+    The same parts for both, so each part's noise weighs on both alike.
+    """
+    rows = np.asarray(choosing, bool)
+    if not rows.any():
+        return True
+    measured = np.asarray(measured, float)
+    return bool(
+        rmse(measured[rows], np.asarray(extended_hybrid)[rows]) <= rmse(measured[rows], np.asarray(hybrid)[rows])
+    )
+
+
+def guarded(extended_hybrid, hybrid, in_support, out_of_support: bool) -> np.ndarray:
+    """The extended hybrid, or where it does not stand (out of the support, by the guard's choice) the paper's."""
+    if out_of_support:
+        return np.asarray(extended_hybrid, float)
+    return np.where(np.asarray(in_support, bool), extended_hybrid, hybrid)
 
 
 def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb) -> Models:
@@ -136,12 +163,15 @@ def evaluate(
     terms,
     make_xgb,
     splits,
+    choosing=None,
 ) -> Evaluation:
     """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
 
-    ``residuals``: residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the hybrid's
-    predictions (pred_hybrid_oof); ``matched_cases``: surrogate and hybrid predictions per matched case.
-    ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold predictions.
+    ``residuals``: measured, residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the
+    hybrid's predictions (pred_hybrid_oof); ``matched_cases``: in_support, surrogate and hybrid predictions per
+    matched case. ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold
+    predictions. ``choosing``: the production rows whose measured values decide, out of the support, whether
+    the extended hybrid stands there (:func:`keeps_out_of_support`; None: all rows).
     """
     if len(matched_cases) != len(matched):
         raise ValueError(f"{len(matched_cases)} matched-case predictions for {len(matched)} matched cases")
@@ -152,12 +182,19 @@ def evaluate(
     models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb)
     extended = surrogate + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
+    inside = in_support(residuals)
+    hybrid_final = hybrid["pred_hybrid_oof"].to_numpy(float)  # out of the support: the model fitted on all parts
+    choosing = np.ones(len(inside), bool) if choosing is None else np.asarray(choosing, bool)
+    models.out_of_support = keeps_out_of_support(
+        residuals["measured"], extended_hybrid, hybrid_final, choosing & ~inside
+    )
+    extended_hybrid = guarded(extended_hybrid, hybrid_final, inside, models.out_of_support)
     oof_extended, oof_extended_hybrid = cross_validated(
         production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits
     )
     scored = {
         "surrogate": surrogate,
-        "hybrid": hybrid["pred_hybrid_oof"].to_numpy(float),
+        "hybrid": hybrid_final,
         "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
         "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid),
     }
@@ -167,7 +204,12 @@ def evaluate(
         "surrogate": surrogate_m,
         "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
         "extended": extended_m,
-        "extended_hybrid": extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float)),
+        "extended_hybrid": guarded(
+            extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float)),
+            matched_cases["pred_hybrid"].to_numpy(float),
+            in_support(matched_cases),
+            models.out_of_support,
+        ),
     }
     predictions = pd.DataFrame(
         {
@@ -188,38 +230,47 @@ def gain_table(
     matched_predictions: dict[str, np.ndarray],
     truth=None,
     noise: float | None = None,
+    test=None,
 ) -> pd.DataFrame:
     """model_extension.csv: RMSE in support (out-of-fold), out of support and on matched cases per model.
 
     ``predictions`` hold, per model, out-of-fold values on in-support rows and
     final-model values elsewhere, so no row is scored by a model trained on it.
+    ``test``: the rows scored out of the support (None: all; else those the guard did not choose on).
     """
-    from .metrics import rmse
 
     inside = np.asarray(in_support, bool)
     measured = np.asarray(measured, float)
+    outside = ~inside if test is None else ~inside & np.asarray(test, bool)
     rows = []
     for model, pred in predictions.items():
         row = {
             "model": model,
             "rmse_in_support_cv": rmse(measured[inside], pred[inside]),
-            "rmse_out_of_support": rmse(measured[~inside], pred[~inside]),
+            "rmse_out_of_support": rmse(measured[outside], pred[outside]),
             "rmse_matched": rmse(matched_measured, matched_predictions[model]),
         }
         if truth is not None:
             truth = np.asarray(truth, float)
             row["rmse_truth_in_support_cv"] = rmse(truth[inside], pred[inside])
-            row["rmse_truth_out_of_support"] = rmse(truth[~inside], pred[~inside])
+            row["rmse_truth_out_of_support"] = rmse(truth[outside], pred[outside])
             row["out_of_support_over_noise"] = row["rmse_out_of_support"] / noise if noise else float("nan")
         rows.append(row)
     table = pd.DataFrame(rows)
     table["n_in_support"] = int(inside.sum())
-    table["n_out_of_support"] = int((~inside).sum())
+    table["n_out_of_support"] = int(outside.sum())
     table["n_matched"] = len(matched_measured)
     table["evaluated_on"] = (
         "measured production values: in support out-of-fold (K-fold CV; the causes and forms "
         "were chosen on all in-support rows, only their parameters refitted per fold), out of "
-        "support with models fitted on all in-support rows (never on these rows); matched "
-        "cases (never used for fitting)" + ("; truth = the demo's noise-free plant" if truth is not None else "")
+        "support with models fitted on all in-support rows (never on these rows)"
+        + (
+            ""
+            if test is None
+            else " on the test blocks (odd blocks of consecutive rows; whether the extended hybrid stands out of "
+            "the support was chosen on the even ones)"
+        )
+        + "; matched cases (never used for fitting)"
+        + ("; truth = the demo's noise-free plant" if truth is not None else "")
     )
     return table

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from . import data, files, intervals, peers, residual
-from .extension import DiscrepancyExtension
+from .extension import DiscrepancyExtension, guarded
 from .gate import KNNSupportGate, input_names
 from .surrogate import GPRSurrogate
 
@@ -111,6 +111,7 @@ class Predictor:
     residual_unfiltered: object
     extension: DiscrepancyExtension
     remainder: object
+    extension_out_of_support: bool  # whether the extended hybrid stands out of the support (the guard's choice)
     intervals: intervals.RegionIntervals
     level: float
     peers: dict  # kind -> fitted peer (GP discrepancy, co-kriging)
@@ -140,6 +141,7 @@ class Predictor:
         model_files = {key: folder / name for key, name in spec["files"].items()}
         surrogate = GPRSurrogate.from_dict(files.read_json(model_files["surrogate"]))
         gate = KNNSupportGate.from_dict(files.read_json(model_files["gate"]))
+        extension = files.read_json(model_files["extension"])
         for name, model in (("surrogate", surrogate), ("gate", gate)):
             if input_names(model) is not None and input_names(model) != inputs:
                 raise ValueError(
@@ -155,8 +157,9 @@ class Predictor:
             gate=gate,
             residual_filtered=_xgb(model_files["residual_filtered"], inputs),
             residual_unfiltered=_xgb(model_files["residual_unfiltered"], inputs),
-            extension=DiscrepancyExtension.from_dict(files.read_json(model_files["extension"])),
+            extension=DiscrepancyExtension.from_dict(extension),
             remainder=_xgb(model_files["remainder"], inputs),
+            extension_out_of_support=bool(extension["extended_hybrid_out_of_support"]),
             intervals=intervals.RegionIntervals.from_dict(spec["intervals"]),
             level=float(spec["level"]),
             peers={kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS},
@@ -197,7 +200,9 @@ class Predictor:
             "hybrid": surrogate + filtered,
             "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
             "extended": extended,
-            "extended_hybrid": extended + self.remainder.predict(X),
+            "extended_hybrid": guarded(
+                extended + self.remainder.predict(X), surrogate + filtered, inside, self.extension_out_of_support
+            ),
         }
         out.update(
             peers.predictions_at(self.peers, X, surrogate)

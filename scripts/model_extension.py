@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from hybridtwin import extension, files, residual
+from hybridtwin import extension, files, intervals, residual
 from hybridtwin.causes import Term
 from hybridtwin.crossval import written_splits
 from hybridtwin.files import in_support, read_checked
@@ -22,6 +22,8 @@ def main(snakemake):
 
     # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(in_support(residuals)))
+    # the blocks that calibrate the intervals choose whether the extended hybrid stands out of the support
+    choosing = intervals.calibration_rows(len(residuals), p.blocks)
     result = extension.evaluate(
         read_checked(snakemake.input.production),
         residuals,
@@ -32,6 +34,7 @@ def main(snakemake):
         terms,
         make_xgb,
         splits,
+        choosing,
     )
     truth = noise = None
     if snakemake.input.get("truth"):
@@ -45,9 +48,13 @@ def main(snakemake):
         result.matched,
         truth,
         noise,
+        test=~choosing,
     )
     files.write_csv(table, snakemake.output.table)
-    files.write_json(result.models.extension.to_dict(), snakemake.output.extension)
+    files.write_json(
+        {**result.models.extension.to_dict(), "extended_hybrid_out_of_support": result.models.out_of_support},
+        snakemake.output.extension,
+    )
     residual.save_model(result.models.remainder, snakemake.output.remainder, p.inputs)
     files.write_csv(result.production, snakemake.output.predictions)
     files.write_csv(pd.DataFrame(result.matched), snakemake.output.matched_predictions, float_format=None)

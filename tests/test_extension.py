@@ -9,7 +9,7 @@ import pytest
 from sklearn.dummy import DummyRegressor
 
 from hybridtwin.causes import Cause, Term
-from hybridtwin.extension import DiscrepancyExtension, evaluate, gain_table
+from hybridtwin.extension import DiscrepancyExtension, evaluate, gain_table, guarded, keeps_out_of_support
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)
@@ -116,24 +116,39 @@ def test_gain_table_counts_each_region_and_says_what_it_scored():
     assert np.isnan(without_noise["out_of_support_over_noise"].iloc[0])
 
 
-def evaluation_by_hand():
+def test_gain_table_scores_out_of_the_support_on_the_test_rows_only():
+    inside = np.array([True, False, False, False])
+    measured, predicted = np.zeros(4), np.array([1.0, 2.0, 3.0, 4.0])
+    table = gain_table(
+        measured, {"m": predicted}, inside, np.zeros(1), {"m": np.zeros(1)}, test=[False, True, False, True]
+    )
+    row = table.iloc[0]
+    assert row["rmse_in_support_cv"] == pytest.approx(1.0)  # in support: every row, test or not
+    assert row["rmse_out_of_support"] == pytest.approx(np.sqrt((4 + 16) / 2))  # rows 1 and 3
+    assert (row["n_in_support"], row["n_out_of_support"]) == (1, 2)
+    assert "on the test blocks (odd blocks of consecutive rows" in row["evaluated_on"]
+
+
+def evaluation_by_hand(measured_outside=(16.0, 16.0), matched_in_support=True, choosing=None):
     """Eight parts, six in support (rows 0, 2, 3, 5, 6, 7) with residuals 0, 0, 0, 0, 0, 6; the two outside
     carry 100, which no model may see. No terms: the extension is the offset (the training rows' mean
-    residual); the remainder model is the largest residual it leaves over. Two folds over the in-support rows."""
+    residual); the remainder model is the largest residual it leaves over. Two folds over the in-support rows.
+    The hybrid predicts 50 + row; the parts outside measure ``measured_outside`` (by default what the
+    extended hybrid predicts there, so that it stands out of the support)."""
     production = pd.DataFrame({"a": np.arange(8.0)})
     inside = np.array([True, False, True, True, False, True, True, True])
+    residual = np.array([0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0])
+    measured = 10.0 + residual
+    measured[~inside] = measured_outside
     residuals = pd.DataFrame(
-        {
-            "residual_approx": [0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0],
-            "pred_surrogate": np.full(8, 10.0),
-            "in_support": inside,
-        }
+        {"measured": measured, "residual_approx": residual, "pred_surrogate": np.full(8, 10.0), "in_support": inside}
     )
     hybrid = pd.DataFrame({"pred_hybrid_oof": np.arange(8.0) + 50})
-    matched, matched_cases = pd.DataFrame({"a": [3.5]}), pd.DataFrame({"pred_surrogate": [20.0], "pred_hybrid": [21.0]})
+    matched = pd.DataFrame({"a": [3.5]})
+    matched_cases = pd.DataFrame({"in_support": [matched_in_support], "pred_surrogate": [20.0], "pred_hybrid": [21.0]})
     splits = [(np.array([0, 1, 2]), np.array([3, 4, 5])), (np.array([3, 4, 5]), np.array([0, 1, 2]))]
     largest = partial(DummyRegressor, strategy="quantile", quantile=1.0)
-    return evaluate(production, residuals, hybrid, matched, matched_cases, ["a"], (), largest, splits)
+    return evaluate(production, residuals, hybrid, matched, matched_cases, ["a"], (), largest, splits, choosing)
 
 
 def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
@@ -150,6 +165,47 @@ def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
     np.testing.assert_allclose(result.scored["surrogate"], np.full(8, 10.0))
     np.testing.assert_allclose(result.scored["hybrid"], np.arange(8.0) + 50)
     assert result.models.extension.offset_ == pytest.approx(1.0)
+    assert result.models.out_of_support
+
+
+def test_out_of_the_support_the_paper_hybrid_stands_where_it_measures_closer():
+    # the parts outside measure 52 and 53: the hybrid (51, 54) is off by 1 each, the extended hybrid (16) by 36
+    result = evaluation_by_hand(measured_outside=(52.0, 53.0), matched_in_support=False)
+    assert not result.models.out_of_support
+    np.testing.assert_allclose(result.production["pred_extended_hybrid"], [16, 51, 16, 16, 54, 16, 16, 16])
+    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"], [16, 51, 16, 16, 54, 10, 10, 10])
+    np.testing.assert_allclose(result.scored["extended_hybrid"], result.production["pred_extended_hybrid_oof"])
+    np.testing.assert_allclose(result.production["pred_extended"], np.full(8, 11.0))  # the extension alone is kept
+    assert result.matched["extended_hybrid"][0] == pytest.approx(21.0)  # an out-of-support case takes the hybrid
+    assert evaluation_by_hand((52.0, 53.0)).matched["extended_hybrid"][0] == pytest.approx(26.0)  # one inside not
+
+
+def test_only_the_choosing_parts_decide():
+    # row 1 (measures 16) favours the extended hybrid, row 4 (measures 54) the hybrid
+    rows = np.arange(8)
+    assert evaluation_by_hand((16.0, 54.0), choosing=rows == 1).models.out_of_support
+    assert not evaluation_by_hand((16.0, 54.0), choosing=rows == 4).models.out_of_support
+    assert evaluation_by_hand((52.0, 53.0), choosing=rows == 0).models.out_of_support  # no part outside chooses
+
+
+def test_the_guard_compares_rmse_on_the_choosing_parts_only():
+    measured, extended_hybrid, hybrid = (
+        np.array([0.0, 0.0, 10.0]),
+        np.array([1.0, 5.0, 10.0]),
+        np.array([2.0, 0.0, 0.0]),
+    )
+    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [True, False, False])  # 1 against 2
+    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, [False, True, False])  # 5 against 0
+    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, [True, True, False])  # 3.6 against 1.4
+    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [True, True, True])  # 3.0 against 5.8
+    assert keeps_out_of_support(measured, hybrid, hybrid, [True, True, True])  # a tie: the extension stands
+    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [False, False, False])  # nothing to choose on
+
+
+def test_a_guarded_extended_hybrid_keeps_its_values_in_the_support():
+    inside = np.array([True, False])
+    np.testing.assert_allclose(guarded([1.0, 2.0], [5.0, 6.0], inside, True), [1.0, 2.0])
+    np.testing.assert_allclose(guarded([1.0, 2.0], [5.0, 6.0], inside, False), [1.0, 6.0])
 
 
 def test_evaluation_predicts_the_matched_cases_with_the_final_models():

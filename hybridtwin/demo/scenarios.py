@@ -17,8 +17,9 @@ import pandas as pd
 import xgboost as xgb
 
 from .. import diagnosis, residual
-from ..extension import fit_models
+from ..extension import fit_models, guarded, keeps_out_of_support
 from ..gate import KNNSupportGate
+from ..intervals import calibration_rows
 from ..metrics import rmse
 from ..surrogate import GPRSurrogate, surrogate_latent_std
 from . import plant as demo
@@ -39,6 +40,8 @@ SCENARIO_XGB = dict(
 
 # plants whose support holds fewer parts are redrawn: the method needs data to learn from
 MIN_IN_SUPPORT = 0.07
+
+BLOCKS = 20  # the workflow's default intervals.blocks: even blocks of consecutive parts choose, odd ones score
 
 KINDS = ("temperature", "shim_step", "stroke_drift", "coil_offset", "rp02_slope", "interaction", "none")
 
@@ -161,6 +164,7 @@ class Outcome:
     shap_top: str = ""
     generator: str = "demo"
     confounding: str = ""
+    extension_stands: bool = True  # the guard kept the extended hybrid out of the support
 
     @property
     def top_monotone(self) -> bool:
@@ -350,9 +354,12 @@ def evaluate(
     hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
     models = fit_models(production.iloc[rows], X[rows], r[rows], result.terms, make_xgb)
     extended = mean + models.extension.predict(production)
-    extended_hybrid = extended + models.remainder.predict(X)
     measured, truth = production[target].to_numpy(float), case.truth
-    outside = ~inside
+    # as the workflow does: the even blocks choose whether the extended hybrid stands out of the support,
+    # the odd ones score
+    choosing = calibration_rows(len(production), BLOCKS)
+    extended_hybrid, stands = _guarded(extended + models.remainder.predict(X), hybrid, measured, inside, choosing)
+    outside = ~inside & ~choosing
     top = result.table.iloc[0]
     chosen = tuple(
         Chosen(
@@ -384,7 +391,13 @@ def evaluate(
         shap_top_column(production.loc[inside].drop(columns=[target]), r[inside], seed, n_jobs),
         generator,
         case.confounding,
+        stands,
     )
+
+
+def _guarded(extended_hybrid, hybrid, measured, inside, choosing) -> tuple[np.ndarray, bool]:
+    stands = keeps_out_of_support(measured, extended_hybrid, hybrid, choosing & ~inside)
+    return guarded(extended_hybrid, hybrid, inside, stands), stands
 
 
 def shap_top_column(frame, residual_values, seed: int, n_jobs: int = 1) -> str:
@@ -478,7 +491,8 @@ def compare_models(
     _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, cv_seed)
     models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
     extended = mean + models.extension.predict(production)
-    extended_hybrid = extended + models.remainder.predict(X)
+    choosing = calibration_rows(len(production), BLOCKS)
+    extended_hybrid, _ = _guarded(extended + models.remainder.predict(X), hybrid, measured, inside, choosing)
     oof_extended, oof_extended_hybrid = cross_validated(
         production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits
     )
@@ -502,7 +516,7 @@ def compare_models(
         frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
     calibrated = intervals.calibrate(
-        frame, production[inputs], doe_range, gate.threshold_, level, 4, 20, seed, case.truth
+        frame, production[inputs], doe_range, gate.threshold_, level, 4, BLOCKS, seed, case.truth
     )
     honest = dict(calibrated.honest)
     honest["recommended"] = intervals.recommended_prediction(

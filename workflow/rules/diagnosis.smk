@@ -65,6 +65,7 @@ rule model_extension:
         inputs=INPUTS,
         seed=SEED,
         matched_measured=config["columns"]["matched_measured"],
+        blocks=config["intervals"]["blocks"],
     script:
         "../../scripts/model_extension.py"
 
