@@ -133,6 +133,8 @@ def main() -> None:
     if args.summary_of:
         out = Path(args.summary_of)
         table = pd.read_csv(out)
+        if "extension_stands" not in table:
+            parser.error(f"{out} was written before the out-of-support guard: run the bank again")
     else:
         warnings.filterwarnings("ignore", category=UserWarning)
         kinds = args.kinds or list(scenarios.KINDS if args.generator == "demo" else families.FAMILIES)

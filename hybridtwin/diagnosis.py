@@ -649,12 +649,11 @@ def _refine(selected: list[Fit], by_name: dict[str, Candidate], y, rules: Rules)
 def _refine_pass(selected: list[Fit], by_name: dict[str, Candidate], y, rules: Rules) -> bool:
     changed = False
     for j, fit in enumerate(list(selected)):
-        # the partial residual of cause j: y less the other causes' terms of a joint fit. A physical cause
-        # is judged without the ids: an id's levels (coils run at their own temperatures) take up any misfit
-        # of its form and would keep a wrong one
-        joint = [s for s in selected if s is fit or fit.candidate.kind == "group" or s.candidate.kind != "group"]
-        models, means = forms.backfit([s.candidate.values for s in joint], [s.form.name for s in joint], y)
-        rest = y - sum(m.predict(s.candidate.values) - c for m, s, c in zip(models, joint, means) if s is not fit)
+        # the partial residual of cause j: y less the other causes' terms of the joint fit
+        models, means = forms.backfit([s.candidate.values for s in selected], [s.form.name for s in selected], y)
+        rest = y - sum(
+            m.predict(s.candidate.values) - c for k, (m, s, c) in enumerate(zip(models, selected, means)) if k != j
+        )
         rest = rest - rest.mean()
         if fit.candidate.kind != "interaction":
             again = rules.best_fit(fit.candidate, rest)

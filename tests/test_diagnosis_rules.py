@@ -245,26 +245,6 @@ def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     assert [(fit.candidate.name, fit.form.name) for fit in selected][0] == ("temp", "sigmoid")
 
 
-def test_an_id_does_not_keep_a_wrong_form_of_a_physical_cause():
-    # coils of 100 strokes on a warming die: each coil's level takes up what a parabola in temperature
-    # misses, so judged with the coil in, the parabola would stay; judged without it, the saturation shows
-    temp, strokes, y = warming_die(drift=0.0, temp_noise=0.5)
-    y -= y.mean()
-    coil = (strokes // 100).astype(int)
-    by_name = {
-        "temp": Candidate.new("temp", "input", temp, ("temp",)),
-        "coil": Candidate.new("coil", "group", np.array([f"K{c:02d}" for c in coil]), ("coil",)),
-    }
-    quadratic = next(
-        alt for alt in best_fit(by_name["temp"], y, SETTINGS, 0.5).alternatives if alt.form.name == "quadratic"
-    )
-    models, means = forms.backfit([temp], ["quadratic"], y)
-    left = y - models[0].predict(temp) + means[0]
-    selected = [quadratic, best_fit(by_name["coil"], left - left.mean(), SETTINGS, 0.5)]
-    assert diagnosis._refine(selected, by_name, y, Lenient(SETTINGS, min_effect=0.5))
-    assert (selected[0].candidate.name, selected[0].form.name) == ("temp", "sigmoid")
-
-
 def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
     rng = np.random.default_rng(7)
     n = 3000
