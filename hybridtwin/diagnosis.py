@@ -516,10 +516,27 @@ class Rules:
         return is_significant(fit, self.n_tests, self.settings, self.min_effect)
 
     def best_fit(self, candidate: Candidate, y) -> Fit:
-        return best_fit(candidate, y, self.settings, self.min_effect)
+        return self.settled(best_fit(candidate, y, self.settings, self.min_effect))
 
     def fit_all(self, candidates: list[Candidate], y) -> dict[str, Fit]:
-        return fit_all(candidates, y, self.settings, self.min_effect)
+        return {name: self.settled(fit) for name, fit in fit_all(candidates, y, self.settings, self.min_effect).items()}
+
+    def settled(self, fit: Fit) -> Fit:
+        """A form put ahead of a better-scoring monotone trend (it predicts the same, and says what the
+        effect is) stands only where it is significant itself; where only the trend is, the trend stays.
+
+        A closed form explains less held out than the trend it replaced (the trend's extra is allowed as the
+        surrogate's own error), and a wear drift's slope then fell under the Bonferroni bar while its trend
+        stood far above it: a weaker column took its place (two-cause draw 1420).
+        """
+        if self.significant(fit):
+            return fit
+        trends = [alt for alt in fit.alternatives if alt.form.name == forms.Monotone.name and alt.score < fit.score]
+        if not trends or not self.significant(trends[0]):
+            return fit
+        trend = dataclasses.replace(trends[0])
+        trend.alternatives = [trend] + [alt for alt in fit.alternatives if alt is not trends[0]]
+        return trend
 
 
 # ---------------------------------------------------------------- diagnosis

@@ -4,7 +4,7 @@ The causes and their forms come from the diagnosis; their few parameters are
 refitted here on the in-support rows (by backfitting when there are several).
 The extended hybrid adds an XGBoost model of what the extension leaves over. Out of the support it
 stands only where it beat the paper's hybrid on the measured parts of the choosing blocks
-(:func:`guard_out_of_support`): a wrong cause, or trees that carry less of the surrogate's error
+(:func:`guard`): a wrong cause, or trees that carry less of the surrogate's error
 once a term took the effect, must never make the paper's method worse where it matters most.
 """
 
@@ -118,6 +118,13 @@ def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
     )
 
 
+def guard(measured, extended_hybrid, hybrid, in_support, choosing) -> tuple[np.ndarray, bool]:
+    """The extended hybrid after the guard's choice on the out-of-support ``choosing`` rows, and that choice."""
+    inside = np.asarray(in_support, bool)
+    stands = keeps_out_of_support(measured, extended_hybrid, hybrid, np.asarray(choosing, bool) & ~inside)
+    return guarded(extended_hybrid, hybrid, inside, stands), stands
+
+
 def guarded(extended_hybrid, hybrid, in_support, out_of_support: bool) -> np.ndarray:
     """The extended hybrid, or where it does not stand (out of the support, by the guard's choice) the paper's."""
     if out_of_support:
@@ -183,12 +190,12 @@ def evaluate(
     extended = surrogate + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
     inside = in_support(residuals)
-    hybrid_final = hybrid["pred_hybrid_oof"].to_numpy(float)  # out of the support: the model fitted on all parts
-    choosing = np.ones(len(inside), bool) if choosing is None else np.asarray(choosing, bool)
-    models.out_of_support = keeps_out_of_support(
-        residuals["measured"], extended_hybrid, hybrid_final, choosing & ~inside
+    # out of the support: the hybrid fitted on all in-support parts
+    hybrid_final = hybrid["pred_hybrid_oof"].to_numpy(float)
+    choosing = np.ones(len(inside), bool) if choosing is None else choosing
+    extended_hybrid, models.out_of_support = guard(
+        residuals["measured"], extended_hybrid, hybrid_final, inside, choosing
     )
-    extended_hybrid = guarded(extended_hybrid, hybrid_final, inside, models.out_of_support)
     oof_extended, oof_extended_hybrid = cross_validated(
         production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits
     )

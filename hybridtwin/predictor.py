@@ -178,7 +178,9 @@ class Predictor:
         """Every model's prediction per row (the gated hybrid with the workflow's gate).
 
         The extension needs its causes' columns: where the table lacks one (a stroke counter, a
-        coil id), ``extended`` and ``extended_hybrid`` are NaN and the recommendation passes them by.
+        coil id), ``extended`` and ``extended_hybrid`` are NaN and the recommendation passes them by;
+        out of the support, where the run's guard let the paper's hybrid stand for the extended
+        hybrid, ``extended_hybrid`` is the paper's hybrid (which needs no such column).
         """
         X = self._inputs(frame)
         surrogate, std = self.surrogate.predict(X, return_std=True)

@@ -510,3 +510,29 @@ def test_a_sigmoid_whose_change_fits_inside_its_data_stays():
     slope = _predicting("linear", SAME, 1)
     assert diagnosis._unseen_saturation_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
     assert diagnosis._unseen_saturation_last([], 0.5, narrow.candidate) == []
+
+
+def _trend(**scores) -> diagnosis.Fit:
+    fit = _scored(**scores)
+    fit.form = forms.Monotone()
+    return fit
+
+
+@pytest.mark.parametrize(
+    "named_p,trend_p,trend_score,stays",
+    [
+        (0.02, 0.001, -2.0, "trend"),  # the slope under the bar, its better trend above it: the trend stays
+        (0.001, 0.001, -2.0, "named"),  # the slope significant itself: it stands
+        (0.02, 0.02, -2.0, "named"),  # neither significant: nothing to settle
+        (0.02, 0.001, -1.0, "named"),  # a trend that scored no better was never put behind the slope
+    ],
+)
+def test_a_named_form_that_took_a_trends_place_stands_only_where_it_is_significant(
+    named_p, trend_p, trend_score, stays
+):
+    named, trend = _scored("wear", p_value=named_p, score=-1.0), _trend(p_value=trend_p, score=trend_score)
+    named.alternatives = [named, trend]
+    settled = diagnosis.Rules(Settings(alpha=0.01), n_tests=1, min_effect=0.5).settled(named)
+    assert settled.form.name == {"trend": "monotone", "named": "linear"}[stays]
+    if stays == "trend":
+        assert settled.alternatives[0] is settled and settled.alternatives[1] is named

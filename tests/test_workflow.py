@@ -396,6 +396,26 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
     pd.testing.assert_frame_equal(shuffled[answers.columns], answers)
 
 
+def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
+    from dataclasses import replace
+
+    from hybridtwin import Predictor
+
+    predictor = Predictor.load(run_dir / "results/models")
+    assert (
+        predictor.extension_out_of_support
+        == files.read_json(run_dir / "results/models/extension.json")["extended_hybrid_out_of_support"]
+    )
+    production = pd.read_csv(run_dir / "results/demo/production.csv").head(2000)
+    inside = predictor.gate.predict(production[predictor.inputs].astype(float))
+    assert inside.any() and (~inside).any()
+    stands = replace(predictor, extension_out_of_support=True).predictions(production, with_peers=False)
+    falls = replace(predictor, extension_out_of_support=False).predictions(production, with_peers=False)
+    np.testing.assert_allclose(falls["extended_hybrid"][~inside], falls["hybrid"][~inside])
+    np.testing.assert_allclose(falls["extended_hybrid"][inside], stands["extended_hybrid"][inside])
+    assert not np.allclose(stands["extended_hybrid"][~inside], stands["hybrid"][~inside])
+
+
 def test_every_model_file_names_its_inputs(run_dir):
     inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
     models = run_dir / "results/models"

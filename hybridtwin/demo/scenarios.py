@@ -17,7 +17,7 @@ import pandas as pd
 import xgboost as xgb
 
 from .. import diagnosis, residual
-from ..extension import fit_models, guarded, keeps_out_of_support
+from ..extension import fit_models, guard
 from ..gate import KNNSupportGate
 from ..intervals import calibration_rows
 from ..metrics import rmse
@@ -358,7 +358,7 @@ def evaluate(
     # as the workflow does: the even blocks choose whether the extended hybrid stands out of the support,
     # the odd ones score
     choosing = calibration_rows(len(production), BLOCKS)
-    extended_hybrid, stands = _guarded(extended + models.remainder.predict(X), hybrid, measured, inside, choosing)
+    extended_hybrid, stands = guard(measured, extended + models.remainder.predict(X), hybrid, inside, choosing)
     outside = ~inside & ~choosing
     top = result.table.iloc[0]
     chosen = tuple(
@@ -393,11 +393,6 @@ def evaluate(
         case.confounding,
         stands,
     )
-
-
-def _guarded(extended_hybrid, hybrid, measured, inside, choosing) -> tuple[np.ndarray, bool]:
-    stands = keeps_out_of_support(measured, extended_hybrid, hybrid, choosing & ~inside)
-    return guarded(extended_hybrid, hybrid, inside, stands), stands
 
 
 def shap_top_column(frame, residual_values, seed: int, n_jobs: int = 1) -> str:
@@ -492,7 +487,7 @@ def compare_models(
     models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
     extended = mean + models.extension.predict(production)
     choosing = calibration_rows(len(production), BLOCKS)
-    extended_hybrid, _ = _guarded(extended + models.remainder.predict(X), hybrid, measured, inside, choosing)
+    extended_hybrid, _ = guard(measured, extended + models.remainder.predict(X), hybrid, inside, choosing)
     oof_extended, oof_extended_hybrid = cross_validated(
         production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits
     )
