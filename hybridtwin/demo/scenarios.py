@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import xgboost as xgb
 
-from .. import diagnosis, residual
+from .. import config, diagnosis, residual
 from ..extension import fit_models, guard
 from ..gate import KNNSupportGate
 from ..intervals import calibration_rows
@@ -41,7 +41,8 @@ SCENARIO_XGB = dict(
 # plants whose support holds fewer parts are redrawn: the method needs data to learn from
 MIN_IN_SUPPORT = 0.07
 
-BLOCKS = 20  # the workflow's default intervals.blocks: even blocks of consecutive parts choose, odd ones score
+# the workflow's default intervals.blocks: even blocks of consecutive parts choose, odd ones score
+BLOCKS = int(config.schema()["properties"]["intervals"]["properties"]["blocks"]["default"])
 
 KINDS = ("temperature", "shim_step", "stroke_drift", "coil_offset", "rp02_slope", "interaction", "none")
 
