@@ -397,6 +397,7 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
 
 
 def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
+    import copy
     from dataclasses import replace
 
     from hybridtwin import Predictor
@@ -409,8 +410,16 @@ def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
     production = pd.read_csv(run_dir / "results/demo/production.csv").head(2000)
     inside = predictor.gate.predict(production[predictor.inputs].astype(float))
     assert inside.any() and (~inside).any()
-    stands = replace(predictor, extension_out_of_support=True).predictions(production, with_peers=False)
-    falls = replace(predictor, extension_out_of_support=False).predictions(production, with_peers=False)
+    # the test run's extension is close to the hybrid: shifted by 5 mm, ignoring the choice would show
+    shifted = copy.deepcopy(predictor.extension)
+    shifted.offset_ += 5.0
+    stands = replace(predictor, extension=shifted, extension_out_of_support=True).predictions(
+        production, with_peers=False
+    )
+    falls = replace(predictor, extension=shifted, extension_out_of_support=False).predictions(
+        production, with_peers=False
+    )
+    assert np.abs(stands["extended_hybrid"] - stands["hybrid"])[~inside].min() > 1.0
     np.testing.assert_allclose(falls["extended_hybrid"][~inside], falls["hybrid"][~inside])
     np.testing.assert_allclose(falls["extended_hybrid"][inside], stands["extended_hybrid"][inside])
     remainder = predictor.remainder.predict(production[predictor.inputs].astype(float))
