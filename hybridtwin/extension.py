@@ -3,7 +3,7 @@
 The causes and their forms come from the diagnosis; their few parameters are
 refitted here on the in-support rows (by backfitting when there are several).
 The extended hybrid adds an XGBoost model of what the extension leaves over. Out of the support it
-stands only where it beat the paper's hybrid on the measured parts of the choosing blocks
+stands only where it beat the paper's hybrid beyond doubt on the measured parts of the choosing blocks
 (:func:`guard`): a wrong cause, or trees that carry less of the surrogate's error
 once a term took the effect, must never make the paper's method worse where it matters most.
 """
@@ -21,7 +21,7 @@ from . import forms
 from .causes import Term
 from .crossval import splice_out_of_fold
 from .files import in_support
-from .metrics import rmse
+from .metrics import rmse, signed_rank_p_value
 
 log = logging.getLogger(__name__)
 
@@ -103,18 +103,32 @@ class Models:
     out_of_support: bool = True  # whether the extended hybrid stands out of the support (the guard's choice)
 
 
-def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
-    """The guard's choice: the extended hybrid stands out of the support unless the paper's hybrid has the
-    lower RMSE against the measured values of the ``choosing`` out-of-support parts (no such part: it stands).
+# beyond doubt out of the support: better on average, and in most stretches of consecutive parts by the
+# signed-rank test (a drift's or a coil's gains are all positive but very unequal across stretches, which
+# a t-test counts against them)
+GUARD_ALPHA = 0.05
+GUARD_BLOCKS = 50
+MIN_GUARD_BLOCKS = 10  # blocks are lengthened down to this many while their means stay correlated
 
-    The same parts for both, so each part's noise weighs on both alike.
+
+def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
+    """The guard's choice: the extended hybrid stands out of the support only where it beats the paper's
+    hybrid beyond doubt on the measured values of the ``choosing`` out-of-support parts.
+
+    Beyond doubt: a lower RMSE, and a gain in most stretches of consecutive parts by the one-sided
+    signed-rank test at :data:`GUARD_ALPHA` (:func:`metrics.signed_rank_p_value`). Where the data cannot
+    decide (a tie, a gain within the noise, too few parts) the paper's hybrid stands. The same parts
+    for both, so each part's noise weighs on both alike.
     """
     rows = np.asarray(choosing, bool)
-    if not rows.any():
-        return True
-    measured = np.asarray(measured, float)
+    if rows.sum() < 2:
+        return False
+    measured = np.asarray(measured, float)[rows]
+    extended_hybrid = np.asarray(extended_hybrid, float)[rows]
+    hybrid = np.asarray(hybrid, float)[rows]
     return bool(
-        rmse(measured[rows], np.asarray(extended_hybrid)[rows]) <= rmse(measured[rows], np.asarray(hybrid)[rows])
+        rmse(measured, extended_hybrid) < rmse(measured, hybrid)
+        and signed_rank_p_value(measured, extended_hybrid, hybrid, GUARD_BLOCKS, MIN_GUARD_BLOCKS) < GUARD_ALPHA
     )
 
 

@@ -129,21 +129,24 @@ def test_gain_table_scores_out_of_the_support_on_the_test_rows_only():
     assert "on the test blocks (odd blocks of consecutive rows" in row["evaluated_on"]
 
 
-def evaluation_by_hand(measured_outside=(16.0, 16.0), matched_in_support=True, choosing=None):
+def evaluation_by_hand(measured_outside=(16.0, 19.0), matched_in_support=True, choosing=None, more_outside=0):
     """Eight parts, six in support (rows 0, 2, 3, 5, 6, 7) with residuals 0, 0, 0, 0, 0, 6; the two outside
     carry 100, which no model may see. No terms: the extension is the offset (the training rows' mean
     residual); the remainder model is the largest residual it leaves over. Two folds over the in-support rows.
-    The hybrid predicts 50 + row; the parts outside measure ``measured_outside`` (by default what the
-    extended hybrid predicts there, so that it stands out of the support)."""
-    production = pd.DataFrame({"a": np.arange(8.0)})
-    inside = np.array([True, False, True, True, False, True, True, True])
-    residual = np.array([0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0])
+    The hybrid predicts 50 + row; the parts outside measure ``measured_outside``. ``more_outside`` parts
+    follow, outside the support, measuring 16: what the extended hybrid predicts (two parts outside cannot
+    decide beyond doubt that it stands; with 100 more, five blocks of parts say so)."""
+    n = 8 + more_outside
+    production = pd.DataFrame({"a": np.arange(float(n))})
+    inside = np.r_[True, False, True, True, False, True, True, True, np.zeros(more_outside, bool)]
+    residual = np.r_[0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0, np.full(more_outside, 100.0)]
     measured = 10.0 + residual
-    measured[~inside] = measured_outside
+    measured[[1, 4]] = measured_outside
+    measured[8:] = 16.0
     residuals = pd.DataFrame(
-        {"measured": measured, "residual_approx": residual, "pred_surrogate": np.full(8, 10.0), "in_support": inside}
+        {"measured": measured, "residual_approx": residual, "pred_surrogate": np.full(n, 10.0), "in_support": inside}
     )
-    hybrid = pd.DataFrame({"pred_hybrid_oof": np.arange(8.0) + 50})
+    hybrid = pd.DataFrame({"pred_hybrid_oof": np.arange(float(n)) + 50})
     matched = pd.DataFrame({"a": [3.5]})
     matched_cases = pd.DataFrame({"in_support": [matched_in_support], "pred_surrogate": [20.0], "pred_hybrid": [21.0]})
     splits = [(np.array([0, 1, 2]), np.array([3, 4, 5])), (np.array([3, 4, 5]), np.array([0, 1, 2]))]
@@ -152,18 +155,18 @@ def evaluation_by_hand(measured_outside=(16.0, 16.0), matched_in_support=True, c
 
 
 def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
-    result = evaluation_by_hand()
+    result = evaluation_by_hand(more_outside=100)
     # all six in-support rows: offset 1, largest leftover 6 - 1 = 5; the same everywhere
-    np.testing.assert_allclose(result.production["pred_extended"], np.full(8, 11.0))
-    np.testing.assert_allclose(result.production["pred_extended_hybrid"], np.full(8, 16.0))
+    np.testing.assert_allclose(result.production["pred_extended"][:8], np.full(8, 11.0))
+    np.testing.assert_allclose(result.production["pred_extended_hybrid"], np.full(108, 16.0))
     # fold 1 trains on rows 0, 2, 3 (offset 0, leftover 0) and predicts rows 5, 6, 7;
     # fold 2 trains on rows 5, 6, 7 (offset 2, leftover 4) and predicts rows 0, 2, 3; rows 1, 4: final models
-    np.testing.assert_allclose(result.production["pred_extended_oof"], [12, 11, 12, 12, 11, 10, 10, 10])
-    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"], [16, 16, 16, 16, 16, 10, 10, 10])
+    np.testing.assert_allclose(result.production["pred_extended_oof"][:8], [12, 11, 12, 12, 11, 10, 10, 10])
+    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"][:8], [16, 16, 16, 16, 16, 10, 10, 10])
     np.testing.assert_allclose(result.scored["extended"], result.production["pred_extended_oof"])
     np.testing.assert_allclose(result.scored["extended_hybrid"], result.production["pred_extended_hybrid_oof"])
-    np.testing.assert_allclose(result.scored["surrogate"], np.full(8, 10.0))
-    np.testing.assert_allclose(result.scored["hybrid"], np.arange(8.0) + 50)
+    np.testing.assert_allclose(result.scored["surrogate"], np.full(108, 10.0))
+    np.testing.assert_allclose(result.scored["hybrid"], np.arange(108.0) + 50)
     assert result.models.extension.offset_ == pytest.approx(1.0)
     assert result.models.out_of_support
 
@@ -180,26 +183,42 @@ def test_out_of_the_support_the_paper_hybrid_stands_where_it_measures_closer():
     assert evaluation_by_hand((52.0, 53.0)).matched["extended_hybrid"][0] == pytest.approx(26.0)  # one inside not
 
 
-def test_only_the_choosing_parts_decide():
-    # row 1 (measures 16) favours the extended hybrid, row 4 (measures 54) the hybrid
-    rows = np.arange(8)
-    assert evaluation_by_hand((16.0, 54.0), choosing=rows == 1).models.out_of_support
-    assert not evaluation_by_hand((16.0, 54.0), choosing=rows == 4).models.out_of_support
-    assert evaluation_by_hand((52.0, 53.0), choosing=rows == 0).models.out_of_support  # no part outside chooses
+def test_only_out_of_support_choosing_parts_decide():
+    rows = np.arange(108)
+    assert evaluation_by_hand(more_outside=100, choosing=rows >= 4).models.out_of_support
+    # the in-support rows favour the extended hybrid too, but never choose: two parts outside cannot decide
+    assert not evaluation_by_hand(more_outside=100, choosing=rows < 8).models.out_of_support
+    assert not evaluation_by_hand().models.out_of_support
+    assert not evaluation_by_hand(more_outside=100, choosing=rows == 0).models.out_of_support  # none outside
 
 
-def test_the_guard_compares_rmse_on_the_choosing_parts_only():
-    measured, extended_hybrid, hybrid = (
-        np.array([0.0, 0.0, 10.0]),
-        np.array([1.0, 5.0, 10.0]),
-        np.array([2.0, 0.0, 0.0]),
-    )
-    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [True, False, False])  # 1 against 2
-    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, [False, True, False])  # 5 against 0
-    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, [True, True, False])  # 3.6 against 1.4
-    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [True, True, True])  # 3.0 against 5.8
-    assert keeps_out_of_support(measured, hybrid, hybrid, [True, True, True])  # a tie: the extension stands
-    assert keeps_out_of_support(measured, extended_hybrid, hybrid, [False, False, False])  # nothing to choose on
+def guard_case(*extended_hybrid, n=20):
+    """Blocks of ``n`` parts measuring 0: the hybrid predicts 4, the extended hybrid one value per block.
+    The squared-error gain of a part is 16 - extended_hybrid²."""
+    values = np.repeat(np.asarray(extended_hybrid, float), n)
+    return np.zeros(len(values)), values, np.full(len(values), 4.0)
+
+
+def test_the_guard_lets_the_extension_stand_only_where_it_wins_beyond_doubt():
+    every = np.ones(200, bool)
+    assert keeps_out_of_support(*guard_case(*[1.0] * 10), every)  # 10 of 10 blocks gain: p = 1/1024
+    assert keeps_out_of_support(*guard_case(*[1.0] * 5), np.ones(100, bool))  # 5 of 5: p = 1/32
+    assert not keeps_out_of_support(*guard_case(*[1.0] * 4), np.ones(80, bool))  # 4 of 4: p = 1/16
+    # a lower RMSE (gains 16 on 3 blocks, -4.25 on 7: mean 1.8), but most stretches lose: p = 0.5
+    assert not keeps_out_of_support(*guard_case(*[0.0] * 3, *[4.5] * 7), every)
+    # 9 of 10 blocks gain 7 (p = 0.046), but the tenth loses 65: a higher RMSE
+    assert not keeps_out_of_support(*guard_case(*[3.0] * 9, 9.0), every)
+    assert not keeps_out_of_support(*guard_case(*[4.0] * 10), every)  # a tie
+    assert not keeps_out_of_support(*guard_case(*[1.0] * 10), ~every)  # nothing to choose on
+    assert not keeps_out_of_support(*guard_case(*[1.0] * 10), np.arange(200) == 3)  # one part cannot decide
+
+
+def test_the_guard_reads_the_choosing_parts_only():
+    measured, extended_hybrid, hybrid = guard_case(*[1.0] * 5, *[9.0] * 5)  # the second half is far worse
+    first = np.arange(200) < 100
+    assert keeps_out_of_support(measured, extended_hybrid, hybrid, first)
+    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, ~first)
+    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, np.ones(200, bool))
 
 
 def test_a_guarded_extended_hybrid_keeps_its_values_in_the_support():
