@@ -77,6 +77,12 @@ def _parser() -> argparse.ArgumentParser:
         help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
         "a region's best model, the next one is recommended)",
     )
+    predict.add_argument(
+        "--jobs",
+        type=int,
+        help="threads for the peers' predictions (default: every core this process may use; "
+        "the answers do not depend on it)",
+    )
     predict.add_argument("--sep", choices=list(SEPARATORS), help="CSV separator, if not the run's csv.sep")
     predict.add_argument("--decimal", choices=[".", ","], help="decimal mark, if not the run's csv.decimal")
     return parser
@@ -90,7 +96,7 @@ def predict(args) -> None:
     if bool(args.csv) == bool(args.set):
         raise InputError("give either a CSV file of settings or --set NAME=VALUE for every input, not both")
     frame = predictor.read(args.csv, fmt) if args.csv else _settings(args.set, predictor)
-    answers = predictor.predict(frame, args.level, with_peers=not args.without_peers)
+    answers = predictor.predict(frame, args.level, with_peers=not args.without_peers, n_jobs=args.jobs)
     if args.output:
         predictor.write(answers, args.output, fmt)
         logging.getLogger("hybridtwin").info("%d row(s) written to %s", len(answers), args.output)

@@ -103,9 +103,9 @@ class Models:
     out_of_support: bool = True  # whether the extended hybrid stands out of the support (the guard's choice)
 
 
-# beyond doubt out of the support: better on average, and in most stretches of consecutive parts by the
-# signed-rank test (a drift's or a coil's gains are all positive but very unequal across stretches, which
-# a t-test counts against them)
+# beyond doubt out of the support: better on average, and a positive gain in the typical stretch of
+# consecutive parts by the signed-rank test (a drift's or a coil's gains are positive but very unequal
+# across stretches, which a t-test counts against them)
 GUARD_ALPHA = 0.05
 GUARD_BLOCKS = 50
 MIN_GUARD_BLOCKS = 10  # blocks are lengthened down to this many while their means stay correlated
@@ -115,10 +115,12 @@ def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
     """The guard's choice: the extended hybrid stands out of the support only where it beats the paper's
     hybrid beyond doubt on the measured values of the ``choosing`` out-of-support parts.
 
-    Beyond doubt: a lower RMSE, and a gain in most stretches of consecutive parts by the one-sided
-    signed-rank test at :data:`GUARD_ALPHA` (:func:`metrics.signed_rank_p_value`). Where the data cannot
-    decide (a tie, a gain within the noise, too few parts) the paper's hybrid stands. The same parts
-    for both, so each part's noise weighs on both alike.
+    Beyond doubt: a lower RMSE, and a positive gain in the typical block of consecutive choosing parts
+    (the choosing blocks joined end to end) by the one-sided Wilcoxon signed-rank test at
+    :data:`GUARD_ALPHA` (:func:`metrics.signed_rank_p_value`). The test needs five blocks of about 20
+    parts to reach it: with fewer than 100 choosing parts outside, or a tie, or a gain within the noise,
+    the data cannot decide and the paper's hybrid stands. The same parts for both, so each part's noise
+    weighs on both alike.
     """
     rows = np.asarray(choosing, bool)
     if rows.sum() < 2:

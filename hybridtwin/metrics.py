@@ -88,11 +88,11 @@ def block_p_value(y, prediction, n_blocks: int, reference=None, min_blocks: int 
 
 
 def signed_rank_p_value(y, prediction, reference, n_blocks: int, min_blocks: int) -> float:
-    """One-sided p-value that ``prediction`` beats ``reference`` in most stretches of consecutive rows: the
-    Wilcoxon signed-rank test over the block means of the gain (:func:`block_gains`).
+    """One-sided p-value that ``prediction`` beats ``reference`` in the typical stretch of consecutive rows:
+    the Wilcoxon signed-rank test over the block means of the gain (:func:`block_gains`).
 
-    Unlike the t-test of :func:`block_p_value`, a gain that all stretches share but in very unequal sizes
-    (a drift, an effect that only some coils reach) does not count against it.
+    Unlike the t-test of :func:`block_p_value`, a gain that is positive almost everywhere but of very
+    unequal size (a drift, an effect that only some coils reach) does not count against it.
     """
     means = block_gains(y, prediction, n_blocks, reference, min_blocks)
     if not np.any(means):

@@ -13,7 +13,10 @@ Both store their training rows and hyperparameters as JSON and are rebuilt from 
 
 from __future__ import annotations
 
+import copy
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +44,18 @@ def _batched(predict, X: np.ndarray) -> np.ndarray:
         if len(X)
         else np.empty(0)
     )
+
+
+def available_cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _chunks(n_rows: int, n_jobs: int) -> list[slice]:
+    """At most ``n_jobs`` stretches of whole batches: each row is predicted in the same batch as in one
+    stretch, so the answer does not depend on the number of threads."""
+    batches = -(-n_rows // BATCH_ROWS)
+    per_chunk = -(-batches // max(1, min(n_jobs, batches))) * BATCH_ROWS if batches else n_rows
+    return [slice(start, min(start + per_chunk, n_rows)) for start in range(0, n_rows, per_chunk or 1)]
 
 
 class GPDiscrepancy(RegressorMixin, BaseEstimator):
@@ -247,9 +262,23 @@ def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) ->
     return surrogate + model.predict(X) if kind == "gp_discrepancy" else model.predict(X)
 
 
-def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray) -> dict[str, np.ndarray]:
-    """Every peer's prediction at ``X`` (the matched cases, say), given the surrogate there."""
-    return {kind: peer_prediction(kind, model, X, surrogate) for kind, model in models.items()}
+def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
+    """Every peer's prediction at ``X`` (the matched cases, say), given the surrogate there.
+
+    With ``n_jobs`` > 1 the rows are shared among as many threads (numpy's kernels release the GIL),
+    each with its own copy of the model: SMT's MFK sets its kernel's length scales as it predicts.
+    """
+    chunks = _chunks(len(X), n_jobs)
+    if len(chunks) <= 1:
+        return {kind: peer_prediction(kind, model, X, surrogate) for kind, model in models.items()}
+    tasks = [
+        (kind, model if i == 0 else copy.deepcopy(model), part)
+        for kind, model in models.items()
+        for i, part in enumerate(chunks)
+    ]
+    with ThreadPoolExecutor(min(n_jobs, len(tasks))) as pool:
+        parts = list(pool.map(lambda t: peer_prediction(t[0], t[1], X.iloc[t[2]], surrogate[t[2]]), tasks))
+    return {kind: np.concatenate([p for (k, _, _), p in zip(tasks, parts) if k == kind]) for kind in models}
 
 
 def load_peer(kind: str, data: dict):

@@ -174,13 +174,16 @@ class Predictor:
             )
         return frame[self.inputs].astype(float)
 
-    def predictions(self, frame: pd.DataFrame, in_support=None, with_peers: bool = True) -> dict[str, np.ndarray]:
+    def predictions(
+        self, frame: pd.DataFrame, in_support=None, with_peers: bool = True, n_jobs: int | None = None
+    ) -> dict[str, np.ndarray]:
         """Every model's prediction per row (the gated hybrid with the workflow's gate).
 
         The extension needs its causes' columns: where the table lacks one (a stroke counter, a
         coil id), ``extended`` and ``extended_hybrid`` are NaN and the recommendation passes them by;
         out of the support, where the run's guard let the paper's hybrid stand for the extended
-        hybrid, ``extended_hybrid`` is the paper's hybrid (which needs no such column).
+        hybrid, ``extended_hybrid`` is the paper's hybrid (which needs no such column). ``n_jobs``: threads
+        for the peers (default: every core this process may use; the answers do not depend on it).
         """
         X = self._inputs(frame)
         surrogate, std = self.surrogate.predict(X, return_std=True)
@@ -207,13 +210,15 @@ class Predictor:
             ),
         }
         out.update(
-            peers.predictions_at(self.peers, X, surrogate)
+            peers.predictions_at(self.peers, X, surrogate, n_jobs or peers.available_cores())
             if with_peers
             else {kind: np.full(len(X), np.nan) for kind in self.peers}
         )
         return out
 
-    def predict(self, frame: pd.DataFrame, level: float | None = None, with_peers: bool = True) -> pd.DataFrame:
+    def predict(
+        self, frame: pd.DataFrame, level: float | None = None, with_peers: bool = True, n_jobs: int | None = None
+    ) -> pd.DataFrame:
         """The rows of ``frame`` (order and extra columns kept) with the answer columns added.
 
         ``with_peers=False`` skips the GP discrepancy and co-kriging (most of the time on large tables): their
@@ -228,7 +233,7 @@ class Predictor:
         beyond = intervals.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
         region = intervals.Regions.of(in_support, beyond_range, distance, self.intervals.edges)
-        predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers), region)
+        predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers, n_jobs), region)
         answers = {
             "in_support": in_support,
             "knn_distance": distance,

@@ -9,7 +9,15 @@ import pytest
 from sklearn.dummy import DummyRegressor
 
 from hybridtwin.causes import Cause, Term
-from hybridtwin.extension import DiscrepancyExtension, evaluate, gain_table, guarded, keeps_out_of_support
+from hybridtwin.extension import (
+    DiscrepancyExtension,
+    evaluate,
+    gain_table,
+    guard,
+    guarded,
+    keeps_out_of_support,
+)
+from hybridtwin.metrics import block_gains
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)
@@ -129,20 +137,23 @@ def test_gain_table_scores_out_of_the_support_on_the_test_rows_only():
     assert "on the test blocks (odd blocks of consecutive rows" in row["evaluated_on"]
 
 
-def evaluation_by_hand(measured_outside=(16.0, 19.0), matched_in_support=True, choosing=None, more_outside=0):
+def evaluation_by_hand(
+    measured_outside=(16.0, 19.0), matched_in_support=True, choosing=None, more_outside=0, more_like="extended"
+):
     """Eight parts, six in support (rows 0, 2, 3, 5, 6, 7) with residuals 0, 0, 0, 0, 0, 6; the two outside
-    carry 100, which no model may see. No terms: the extension is the offset (the training rows' mean
-    residual); the remainder model is the largest residual it leaves over. Two folds over the in-support rows.
-    The hybrid predicts 50 + row; the parts outside measure ``measured_outside``. ``more_outside`` parts
-    follow, outside the support, measuring 16: what the extended hybrid predicts (two parts outside cannot
-    decide beyond doubt that it stands; with 100 more, five blocks of parts say so)."""
+    (rows 1 and 4) carry 100, which no model may see. No terms: the extension is the offset (the training
+    rows' mean residual); the remainder model is the largest residual it leaves over. Two folds over the
+    in-support rows. The hybrid predicts 50 + row; rows 1 and 4 measure ``measured_outside``. Then
+    ``more_outside`` parts outside the support, measuring what the extended hybrid (16) or the hybrid
+    (50 + row) predicts, as ``more_like`` says: two parts outside cannot decide beyond doubt whether the
+    extended hybrid stands; with 100 more, five blocks of parts can."""
     n = 8 + more_outside
     production = pd.DataFrame({"a": np.arange(float(n))})
     inside = np.r_[True, False, True, True, False, True, True, True, np.zeros(more_outside, bool)]
     residual = np.r_[0.0, 100.0, 0.0, 0.0, 100.0, 0.0, 0.0, 6.0, np.full(more_outside, 100.0)]
     measured = 10.0 + residual
     measured[[1, 4]] = measured_outside
-    measured[8:] = 16.0
+    measured[8:] = 16.0 if more_like == "extended" else 50.0 + np.arange(8, n)
     residuals = pd.DataFrame(
         {"measured": measured, "residual_approx": residual, "pred_surrogate": np.full(n, 10.0), "in_support": inside}
     )
@@ -173,12 +184,16 @@ def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
 
 def test_out_of_the_support_the_paper_hybrid_stands_where_it_measures_closer():
     # the parts outside measure 52 and 53: the hybrid (51, 54) is off by 1 each, the extended hybrid (16) by 36
-    result = evaluation_by_hand(measured_outside=(52.0, 53.0), matched_in_support=False)
+    # and 100 more parts outside measure what the hybrid predicts there
+    result = evaluation_by_hand((52.0, 53.0), matched_in_support=False, more_outside=100, more_like="hybrid")
     assert not result.models.out_of_support
-    np.testing.assert_allclose(result.production["pred_extended_hybrid"], [16, 51, 16, 16, 54, 16, 16, 16])
-    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"], [16, 51, 16, 16, 54, 10, 10, 10])
+    hybrid_outside = 50.0 + np.arange(8, 108)
+    np.testing.assert_allclose(
+        result.production["pred_extended_hybrid"], [16, 51, 16, 16, 54, 16, 16, 16, *hybrid_outside]
+    )
+    np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"][:8], [16, 51, 16, 16, 54, 10, 10, 10])
     np.testing.assert_allclose(result.scored["extended_hybrid"], result.production["pred_extended_hybrid_oof"])
-    np.testing.assert_allclose(result.production["pred_extended"], np.full(8, 11.0))  # the extension alone is kept
+    np.testing.assert_allclose(result.production["pred_extended"], np.full(108, 11.0))  # the extension alone is kept
     assert result.matched["extended_hybrid"][0] == pytest.approx(21.0)  # an out-of-support case takes the hybrid
     assert evaluation_by_hand((52.0, 53.0)).matched["extended_hybrid"][0] == pytest.approx(26.0)  # one inside not
 
@@ -204,13 +219,32 @@ def test_the_guard_lets_the_extension_stand_only_where_it_wins_beyond_doubt():
     assert keeps_out_of_support(*guard_case(*[1.0] * 10), every)  # 10 of 10 blocks gain: p = 1/1024
     assert keeps_out_of_support(*guard_case(*[1.0] * 5), np.ones(100, bool))  # 5 of 5: p = 1/32
     assert not keeps_out_of_support(*guard_case(*[1.0] * 4), np.ones(80, bool))  # 4 of 4: p = 1/16
-    # a lower RMSE (gains 16 on 3 blocks, -4.25 on 7: mean 1.8), but most stretches lose: p = 0.5
+    # a lower RMSE (gains 16 on 3 blocks, -4.25 on 7: mean 1.825), but the typical block loses: p = 0.5
     assert not keeps_out_of_support(*guard_case(*[0.0] * 3, *[4.5] * 7), every)
     # 9 of 10 blocks gain 7 (p = 0.046), but the tenth loses 65: a higher RMSE
     assert not keeps_out_of_support(*guard_case(*[3.0] * 9, 9.0), every)
+    # gains 7 on 6 blocks, 15 on 2, 12 on one, -84 on one (p = 0.025): the same RMSE as the hybrid, 4
+    assert not keeps_out_of_support(*guard_case(*[3.0] * 6, 1.0, 1.0, 2.0, 10.0), every)
     assert not keeps_out_of_support(*guard_case(*[4.0] * 10), every)  # a tie
     assert not keeps_out_of_support(*guard_case(*[1.0] * 10), ~every)  # nothing to choose on
     assert not keeps_out_of_support(*guard_case(*[1.0] * 10), np.arange(200) == 3)  # one part cannot decide
+
+
+def test_the_guard_lengthens_blocks_whose_gains_are_correlated():
+    # gains 10 on the first 25 blocks of 20 parts, -1 on the last 25: over 50 blocks p = 0.0009; their
+    # neighbours' means are correlated, so the blocks are lengthened to 12: p = 0.09
+    measured, extended_hybrid, hybrid = guard_case(*[np.sqrt(6.0)] * 25, *[np.sqrt(17.0)] * 25)
+    assert len(block_gains(measured, extended_hybrid, 50, hybrid, min_blocks=10)) == 12
+    assert not keeps_out_of_support(measured, extended_hybrid, hybrid, np.ones(1000, bool))
+
+
+def test_in_support_parts_never_choose():
+    measured, extended_hybrid, hybrid = guard_case(*[1.0] * 10)  # every part favours the extended hybrid
+    inside = np.arange(200) < 190
+    guarded_values, stands = guard(measured, extended_hybrid, hybrid, inside, np.ones(200, bool))
+    assert not stands  # ten parts outside: two blocks of gains, p = 0.25 at best
+    np.testing.assert_allclose(guarded_values, np.where(inside, 1.0, 4.0))
+    assert guard(measured, extended_hybrid, hybrid, np.zeros(200, bool), np.ones(200, bool))[1]  # all outside
 
 
 def test_the_guard_reads_the_choosing_parts_only():

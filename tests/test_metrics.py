@@ -6,7 +6,17 @@ import warnings
 import numpy as np
 import pytest
 
-from hybridtwin.metrics import batch_means, bias, block_p_value, lag1_correlation, mae, r2, rmse
+from hybridtwin.metrics import (
+    batch_means,
+    bias,
+    block_gains,
+    block_p_value,
+    lag1_correlation,
+    mae,
+    r2,
+    rmse,
+    signed_rank_p_value,
+)
 
 
 @pytest.mark.parametrize("metric", [rmse, mae, bias, r2])
@@ -45,3 +55,22 @@ def test_batch_means_lengthen_blocks_while_their_means_stay_correlated():
     assert len(batch_means(values, 40, min_blocks=10)) == 10  # never fewer than asked
     alternating = np.repeat(np.tile([1.0, -1.0], 20), 20)  # neighbouring block means anti-correlated
     assert len(batch_means(alternating, 40, min_blocks=5)) == 40
+
+
+def test_block_gains_are_the_block_means_of_the_squared_error_gain():
+    y = np.zeros(60)
+    reference = np.full(60, 2.0)  # squared error 4
+    prediction = np.r_[np.zeros(20), np.ones(20), np.full(20, 3.0)]  # squared errors 0, 1, 9
+    np.testing.assert_allclose(block_gains(y, prediction, 3, reference), [4.0, 3.0, -5.0])
+    np.testing.assert_allclose(block_gains(y, prediction, 3), [0.0, -1.0, -9.0])  # against predicting zero
+
+
+def test_the_signed_rank_test_weighs_each_block_by_the_rank_of_its_gain():
+    y, reference = np.zeros(100), np.full(100, 2.0)
+    gains_of = np.repeat  # five blocks of 20 parts; the reference's squared error is 4
+    assert signed_rank_p_value(y, gains_of([0.0] * 5, 20), reference, 5, 5) == pytest.approx(1 / 32)
+    # gains 4, 3.75, 3, 1.75 and -5: the loss has the largest rank, W = 1 + 2 + 3 + 4 = 10 of 15, which 10
+    # of the 32 sign patterns reach: p = 10/32, though the mean gain is positive
+    mixed = gains_of([0.0, 0.5, 1.0, 1.5, 3.0], 20)
+    assert signed_rank_p_value(y, mixed, reference, 5, 5) == pytest.approx(10 / 32)
+    assert signed_rank_p_value(y, reference, reference, 5, 5) == 1.0  # no gain anywhere

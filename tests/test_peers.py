@@ -101,3 +101,21 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_never_its_tr
     np.testing.assert_allclose(
         full.production["pred_gp_discrepancy"].to_numpy()[predicted], fit.production["pred_gp_discrepancy"][predicted]
     )
+
+
+def test_threads_share_the_rows_and_give_the_same_answers(case):
+    models = {
+        "gp_discrepancy": peers.GPDiscrepancy(n_hyper=100, n_fit=300).fit(case["parts"], case["y_parts"]),
+        "cokriging": peers.CoKriging(n_high=100).fit(
+            case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
+        ),
+    }
+    X, surrogate = case["parts"].iloc[:1300], np.arange(1300.0)  # three batches of rows: 500, 500, 300
+    alone = peers.predictions_at(models, X, surrogate, n_jobs=1)
+    shared = peers.predictions_at(models, X, surrogate, n_jobs=3)
+    for kind in peers.PEERS:
+        assert np.array_equal(shared[kind], alone[kind]), kind
+    np.testing.assert_allclose(alone["gp_discrepancy"], surrogate + models["gp_discrepancy"].predict(X))
+    assert [(c.start, c.stop) for c in peers._chunks(1300, 2)] == [(0, 1000), (1000, 1300)]
+    assert [(c.start, c.stop) for c in peers._chunks(1300, 5)] == [(0, 500), (500, 1000), (1000, 1300)]
+    assert peers._chunks(0, 2) == []
