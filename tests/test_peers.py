@@ -110,12 +110,13 @@ def test_threads_share_the_rows_and_give_the_same_answers(case):
             case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
         ),
     }
-    X, surrogate = case["parts"].iloc[:1300], np.arange(1300.0)  # three batches of rows: 500, 500, 300
+    X, surrogate = case["parts"].iloc[:1250], np.arange(1250.0)  # 13 batches of 100 rows, the last of 50
     alone = peers.predictions_at(models, X, surrogate, n_jobs=1)
     shared = peers.predictions_at(models, X, surrogate, n_jobs=3)
     for kind in peers.PEERS:
         assert np.array_equal(shared[kind], alone[kind]), kind
     np.testing.assert_allclose(alone["gp_discrepancy"], surrogate + models["gp_discrepancy"].predict(X))
-    assert [(c.start, c.stop) for c in peers._chunks(1300, 2)] == [(0, 1000), (1000, 1300)]
-    assert [(c.start, c.stop) for c in peers._chunks(1300, 5)] == [(0, 500), (500, 1000), (1000, 1300)]
+    assert peers.BATCH_ROWS == 100
+    assert [(c.start, c.stop) for c in peers._chunks(1250, 2)] == [(0, 700), (700, 1250)]
+    assert [(c.start, c.stop) for c in peers._chunks(250, 5)] == [(0, 100), (100, 200), (200, 250)]
     assert peers._chunks(0, 2) == []
