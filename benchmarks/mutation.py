@@ -1,6 +1,6 @@
 """Mutation testing of the method modules against the fast tests: the share of mutants each module's tests kill.
 
-    python benchmarks/mutation.py                    # a fresh run (about half an hour on 2 cores, run alone)
+    python benchmarks/mutation.py                    # a fresh run (about 45 minutes on 2 cores, run alone)
     python benchmarks/mutation.py --modules forms    # rerun one module's mutants, keep the others' verdicts
     python benchmarks/mutation.py --modules forms --survivors  # rerun its survivors only, after adding tests
     python benchmarks/mutation.py --report           # only re-read the results of the last run in mutants/

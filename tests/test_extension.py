@@ -283,3 +283,14 @@ def test_evaluation_needs_one_prediction_per_matched_case():
             DummyRegressor,
             [],
         )
+
+
+def test_the_guard_reads_zero_one_columns_as_flags():
+    # in_support and the choosing blocks as a CSV gives them: 0/1 integers, which must not index rows 0 and 1
+    measured, extended_hybrid, hybrid = guard_case(9.0, *[1.0] * 9)  # the first block loses, the others gain
+    later = (np.arange(200) >= 20).astype(int)
+    assert keeps_out_of_support(measured, extended_hybrid, hybrid, later)
+    inside = (np.arange(200) < 20).astype(int)
+    values, stands = guard(measured, extended_hybrid, hybrid, inside, np.ones(200, int))
+    assert stands
+    np.testing.assert_allclose(guarded(extended_hybrid, hybrid, inside, False), np.where(inside == 1, 9.0, 4.0))
