@@ -55,9 +55,11 @@ def available_cores() -> int:
 def _chunks(n_rows: int, n_jobs: int) -> list[slice]:
     """At most ``n_jobs`` stretches of whole batches: each row is predicted in the same batch as in one
     stretch, so the answer does not depend on the number of threads."""
+    if n_rows == 0:
+        return []
     batches = -(-n_rows // BATCH_ROWS)
-    per_chunk = -(-batches // max(1, min(n_jobs, batches))) * BATCH_ROWS if batches else n_rows
-    return [slice(start, min(start + per_chunk, n_rows)) for start in range(0, n_rows, per_chunk or 1)]
+    per_chunk = -(-batches // max(1, min(n_jobs, batches))) * BATCH_ROWS
+    return [slice(start, min(start + per_chunk, n_rows)) for start in range(0, n_rows, per_chunk)]
 
 
 class GPDiscrepancy(RegressorMixin, BaseEstimator):
