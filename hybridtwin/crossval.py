@@ -61,8 +61,9 @@ def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) ->
     for fold, (train, test) in enumerate(folds(len(y), n_folds, seed), start=1):
         model = clone(estimator).fit(X[train], y[train])
         oof[test] = model.predict(X[test])
+        n_train = getattr(model, "n_fitted_", len(train))  # a model that fits on a sample of its rows says so
         rows.append(
-            {"fold": fold, "n_train": len(train), "n_test": len(test), **scores(y[test], oof[test], names=CV_METRICS)}
+            {"fold": fold, "n_train": n_train, "n_test": len(test), **scores(y[test], oof[test], names=CV_METRICS)}
         )
         if after_fold is not None:
             after_fold(rows)

@@ -20,6 +20,7 @@ import pandas as pd
 from scipy.spatial.distance import cdist
 from sklearn.cluster import KMeans
 
+from .crossval import training_subset
 from .gate import KNNSupportGate
 
 
@@ -30,6 +31,7 @@ class EnrichmentSettings:
     margin: float = 0.05  # share of each input's span the limits are widened by
     n_candidates: int = 200
     seed: int = 0
+    max_rows: int | None = None  # parts the choice is made on (a seeded sample of a larger log; None: all)
 
 
 def recency_weights(n_rows: int, recency_weight: float) -> np.ndarray:
@@ -88,6 +90,12 @@ class Proposal:
     share_before: float
     surrogate_std: np.ndarray
     share_after_fixed_threshold: list[float]  # the same with today's threshold held
+    n_counted: int = 0  # the parts counted (a seeded sample of n_production on a larger log)
+    n_production: int = 0
+
+    @property
+    def parts_per_counted_part(self) -> float:
+        return self.n_production / self.n_counted if self.n_counted else 1.0
 
 
 def propose(
@@ -97,12 +105,15 @@ def propose(
     doe, production = np.asarray(doe, float), np.asarray(production, float)
     weights = recency_weights(len(production), settings.recency_weight)
     low, high = physical_limits(doe, production, settings.margin)
+    # on a long log, a seeded sample of parts (in time order, each with its recency weight) stands for it
+    counted = training_subset(len(production), settings.max_rows or len(production), settings.seed)
+    n_production, production, weights = len(production), production[counted], weights[counted]
     gate = KNNSupportGate(k=k, percentile=percentile).fit(doe)
     inside = gate.predict(production)
     share_before = float(inside.mean())
     points, brought, shares, stds, held_shares = [], [], [], [], []
     if inside.all() or settings.n_points == 0:
-        return Proposal(np.empty((0, doe.shape[1])), [], [], share_before, np.empty(0), [])
+        return Proposal(np.empty((0, doe.shape[1])), [], [], share_before, np.empty(0), [], len(counted), n_production)
     outside = ~inside
     # points far from the DoE raise the rebuilt gate's threshold (a percentile of the DoE's own distances):
     # candidates are chosen, and also counted, against today's threshold, so a point earns its place by coverage
@@ -136,12 +147,14 @@ def propose(
         distance = gate.distance(production)
         now_inside, now_held = gate.within(distance), distance <= threshold
         points.append(candidates[pick])
-        brought.append(np.flatnonzero(now_inside & ~inside))
+        brought.append(counted[np.flatnonzero(now_inside & ~inside)])
         shares.append(float(now_inside.mean()))
         held_shares.append(float(now_held.mean()))
         stds.append(raw_std[pick])
         inside, held = now_inside, now_held
-    return Proposal(np.array(points), brought, shares, share_before, np.array(stds), held_shares)
+    return Proposal(
+        np.array(points), brought, shares, share_before, np.array(stds), held_shares, len(counted), n_production
+    )
 
 
 def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
@@ -167,14 +180,25 @@ def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
     return "; ".join(parts)
 
 
-def proposals_table(proposal: Proposal, production: pd.DataFrame, inputs, n_production: int) -> pd.DataFrame:
+def counted_on(proposal: Proposal) -> str:
+    if proposal.n_counted >= proposal.n_production:
+        return f"all {proposal.n_production:,} production parts"
+    return (
+        f"a seeded sample of {proposal.n_counted:,} of the {proposal.n_production:,} production parts "
+        "(enrichment.max_rows); parts_brought_in scaled to the whole log"
+    )
+
+
+def proposals_table(proposal: Proposal, production: pd.DataFrame, inputs) -> pd.DataFrame:
     """proposed_simulations.csv: the points in the DoE's columns, with what each brings."""
     table = pd.DataFrame(proposal.points.reshape(-1, len(inputs)), columns=list(inputs))
     table.insert(0, "proposal", np.arange(1, len(table) + 1))
-    table["parts_brought_in"] = [len(rows) for rows in proposal.brought_in]
+    scale = proposal.parts_per_counted_part
+    table["parts_brought_in"] = [int(round(len(rows) * scale)) for rows in proposal.brought_in]
     table["share_in_support_after"] = proposal.share_after
     table["share_within_todays_threshold"] = proposal.share_after_fixed_threshold
     table["surrogate_std_here"] = proposal.surrogate_std
     table["serves"] = [_served(production, rows, inputs) for rows in proposal.brought_in]
+    table["counted_on"] = counted_on(proposal)
     table.attrs["share_before"] = proposal.share_before
     return table

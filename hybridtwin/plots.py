@@ -233,9 +233,10 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
 
     doe, production, proposals = (np.asarray(a, float) for a in (doe, production, proposals))
     mean, scale = doe.mean(axis=0), doe.std(axis=0, ddof=1)
-    pca = PCA(n_components=2, random_state=seed).fit((np.vstack([doe, production]) - mean) / scale)
-    project = lambda X: pca.transform((X - mean) / scale)  # noqa: E731
     shown = np.random.default_rng(seed).choice(len(production), min(len(production), 4000), replace=False)
+    # the axes of the DoE and the parts shown: a plant log of millions of parts adds nothing to them
+    pca = PCA(n_components=2, random_state=seed).fit((np.vstack([doe, production[shown]]) - mean) / scale)
+    project = lambda X: pca.transform((X - mean) / scale)  # noqa: E731
     inside = np.asarray(inside, bool)[shown]
     figure, axis = plt.subplots(figsize=(6, 5))
     points = project(production[shown])

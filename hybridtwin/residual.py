@@ -17,6 +17,7 @@ import numpy as np
 import optuna
 import pandas as pd
 import xgboost as xgb
+from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from .crossval import cross_validate, training_subset
 
@@ -48,9 +49,47 @@ PARAMETER_LABELS = {
 }
 
 
-def make_model(params: dict, seed: int, n_jobs: int = 1) -> xgb.XGBRegressor:
-    """XGBoost regressor with the hist method, which is deterministic for a fixed seed."""
-    return xgb.XGBRegressor(**params, tree_method="hist", random_state=seed, n_jobs=n_jobs)
+def make_model(params: dict, seed: int, n_jobs: int = 1, max_train_rows: int | None = None):
+    """XGBoost regressor with the hist method, which is deterministic for a fixed seed; with
+    ``max_train_rows``, fitted on a seeded sample of at most that many of the rows it is given."""
+    model = xgb.XGBRegressor(**params, tree_method="hist", random_state=seed, n_jobs=n_jobs)
+    return model if max_train_rows is None else RowCapped(model, max_train_rows, seed)
+
+
+class RowCapped(RegressorMixin, BaseEstimator):
+    """An estimator fitted on a seeded sample of at most ``max_rows`` of the rows it is given (all of them
+    when there are fewer): on a plant log of millions of parts, a tree ensemble learns no more from the
+    rest, and its fit time stays bounded. Predicts every row."""
+
+    def __init__(self, estimator=None, max_rows: int = 500_000, seed: int = 0):
+        self.estimator = estimator
+        self.max_rows = max_rows
+        self.seed = seed
+
+    def fit(self, X, y):
+        rows = training_subset(len(y), self.max_rows, self.seed)
+        sample = X.iloc[rows] if hasattr(X, "iloc") else np.asarray(X)[rows]
+        self.estimator_ = clone(self.estimator).fit(sample, np.asarray(y, float)[rows])
+        self.n_fitted_ = len(rows)
+        return self
+
+    def predict(self, X):
+        return self.estimator_.predict(X)
+
+
+def fitted_estimator(model):
+    """The fitted model itself (XGBoost's), inside a :class:`RowCapped` or not."""
+    return getattr(model, "estimator_", model)
+
+
+def capped_note(max_train_rows: int | None, n_rows: int) -> str:
+    """How a table says that its residual models were fitted on a sample ('' when they were not)."""
+    if max_train_rows is None or n_rows <= max_train_rows:
+        return ""
+    return (
+        f"; each XGBoost model fitted on a seeded sample of at most {max_train_rows:,} of its training rows "
+        "(residual_model.max_train_rows)"
+    )
 
 
 def suggest(trial: optuna.Trial, space: dict[str, dict]) -> dict:
@@ -246,7 +285,7 @@ def best_params(study: optuna.Study, space: dict | None = None, n_trials: int | 
     return {name: best.params[name] for name in space}
 
 
-def save_model(model: xgb.XGBRegressor, path, inputs=None) -> None:
+def save_model(model, path, inputs=None) -> None:
     """XGBoost's own JSON format: loads with xgboost alone, no code runs.
 
     ``inputs`` names the columns the model was fitted on, in order; the file
@@ -254,6 +293,7 @@ def save_model(model: xgb.XGBRegressor, path, inputs=None) -> None:
     """
     from .files import atomic_path
 
+    model = fitted_estimator(model)
     if inputs is not None:
         model.get_booster().feature_names = [str(name) for name in inputs]
     with atomic_path(path) as temporary:

@@ -18,7 +18,7 @@ def main(snakemake):
     params = files.read_json(snakemake.input.best)["params"]
 
     def make_xgb():
-        return residual.make_model(params, p.seed, snakemake.threads)
+        return residual.make_model(params, p.seed, snakemake.threads, p.max_train_rows)
 
     # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(in_support(residuals)))
@@ -50,6 +50,7 @@ def main(snakemake):
         noise,
         test=~choosing,
     )
+    table["evaluated_on"] += residual.capped_note(p.max_train_rows, int(in_support(residuals).sum()))
     files.write_csv(table, snakemake.output.table)
     files.write_json(
         {**result.models.extension.to_dict(), "extended_hybrid_out_of_support": result.models.out_of_support},

@@ -18,6 +18,7 @@ def main(snakemake):
         margin=p.settings["margin"],
         n_candidates=p.settings["n_candidates"],
         seed=p.seed,
+        max_rows=p.settings["max_rows"],
     )
     proposal = enrichment.propose(
         doe[p.inputs].to_numpy(float),
@@ -27,7 +28,7 @@ def main(snakemake):
         settings,
         surrogate_std=lambda X: surrogate.predict(X, return_std=True)[1],
     )
-    table = enrichment.proposals_table(proposal, production, p.inputs, len(production))
+    table = enrichment.proposals_table(proposal, production, p.inputs)
     if proposal.share_before == 1.0:
         logging.warning("every production part is already in the support: nothing to propose (empty table written)")
     elif len(table) < settings.n_points:

@@ -19,7 +19,7 @@ def main(snakemake):
     X = production.loc[rows, snakemake.params.inputs]
     y = residuals.loc[rows, "residual_approx"].to_numpy(float)
     params = files.read_json(snakemake.input.best)["params"]
-    model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
+    model = residual.make_model(params, snakemake.params.seed, snakemake.threads, snakemake.params.max_train_rows)
     # a fold split other than the tuning's, so the score is not the winning trial's own
     seed = residual.evaluation_seed(snakemake.params.seed)
     per_fold, oof = cross_validate(model, X, y, snakemake.params.folds, seed)
@@ -36,7 +36,8 @@ def main(snakemake):
             f"approximate residuals of {len(y)} production rows "
             f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
             f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "
-            "were tuned by CV on the in-support rows",
+            "were tuned by CV on the in-support rows"
+            + residual.capped_note(snakemake.params.max_train_rows, len(y) - int(per_fold["n_test"].min())),
         ),
         snakemake.output.table,
     )

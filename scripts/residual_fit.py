@@ -10,7 +10,7 @@ def main(snakemake):
     residuals = read_checked(snakemake.input.residuals)
     rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
     params = files.read_json(snakemake.input.best)["params"]
-    model = residual.make_model(params, snakemake.params.seed, snakemake.threads)
+    model = residual.make_model(params, snakemake.params.seed, snakemake.threads, snakemake.params.max_train_rows)
     model.fit(production.loc[rows, snakemake.params.inputs].to_numpy(float), residuals.loc[rows, "residual_approx"])
     residual.save_model(model, snakemake.output.model, snakemake.params.inputs)
 

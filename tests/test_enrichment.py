@@ -56,6 +56,31 @@ def test_proposals_counted_in_chunks_of_parts_are_the_same(monkeypatch):
     assert chunked.share_after == whole.share_after
 
 
+def test_proposals_on_a_sample_of_a_long_log_count_its_parts_and_scale_them_to_the_log():
+    doe, production = plant()
+    settings = enrichment.EnrichmentSettings(n_points=3, n_candidates=50, seed=1, max_rows=400)
+    sampled = enrichment.propose(doe, production, 5, 95, settings)
+    counted = np.sort(np.random.default_rng(1).choice(len(production), 400, replace=False))
+    assert sampled.n_counted == 400 and sampled.n_production == 1200 and sampled.parts_per_counted_part == 3.0
+    # shares and the parts brought in are those of the rebuilt gates on the sampled parts, as rows of the log
+    before = KNNSupportGate(k=5, percentile=95).fit(doe).predict(production[counted])
+    assert sampled.share_before == before.mean()
+    for j, rows in enumerate(sampled.brought_in, start=1):
+        now = KNNSupportGate(k=5, percentile=95).fit(np.vstack([doe, sampled.points[:j]])).predict(production[counted])
+        assert sampled.share_after[j - 1] == pytest.approx(now.mean())
+        np.testing.assert_array_equal(rows, counted[now & ~before])
+        before = now
+    assert sum(map(len, sampled.brought_in)) > 100
+    table = enrichment.proposals_table(sampled, pd.DataFrame(production, columns=list("abcd")), list("abcd"))
+    assert table["parts_brought_in"].tolist() == [3 * len(rows) for rows in sampled.brought_in]
+    assert table["counted_on"].iloc[0].startswith("a seeded sample of 400 of the 1,200 production parts")
+    # a cap above the log's length counts every part
+    whole = enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(3, 1.0, 0.05, 50, 1, 5000))
+    table = enrichment.proposals_table(whole, pd.DataFrame(production, columns=list("abcd")), list("abcd"))
+    assert table["counted_on"].iloc[0] == "all 1,200 production parts"
+    assert table["parts_brought_in"].tolist() == [len(rows) for rows in whole.brought_in]
+
+
 def test_proposals_stay_inside_the_physical_limits():
     doe, production = plant(2)
     low, high = enrichment.physical_limits(doe, production, 0.05)
@@ -67,7 +92,7 @@ def test_nothing_to_propose_when_every_part_is_in_support_gives_an_empty_table_w
     doe, _ = plant()
     production = doe[:30] + 0.001
     proposal = enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=5))
-    table = enrichment.proposals_table(proposal, pd.DataFrame(production, columns=list("abcd")), list("abcd"), 30)
+    table = enrichment.proposals_table(proposal, pd.DataFrame(production, columns=list("abcd")), list("abcd"))
     assert len(table) == 0
     assert list(table.columns[:5]) == ["proposal", "a", "b", "c", "d"] and "parts_brought_in" in table
 

@@ -341,6 +341,37 @@ def test_cross_validate_keeps_fractions_of_an_integer_target_and_numbers_folds_f
     assert per_fold["fold"].tolist() == [1, 2, 3, 4]
 
 
+def test_a_row_capped_model_fits_on_a_seeded_sample_and_predicts_every_row():
+    FITTED.clear()
+    n = 40
+    X = np.column_stack([np.arange(n), np.linspace(0, 1, n)])
+    y = np.arange(n, dtype=float)
+    capped = residual.RowCapped(Recorder(), max_rows=10, seed=4).fit(X, y)
+    assert capped.n_fitted_ == 10 and len(capped.estimator_.seen_) == 10
+    assert capped.estimator_.seen_ == set(np.sort(np.random.default_rng(4).choice(n, 10, replace=False)).tolist())
+    assert capped.estimator_.mean_ == pytest.approx(np.mean(sorted(capped.estimator_.seen_)))
+    assert len(capped.predict(X)) == n and capped.estimator_.predicted_ == set(range(n))
+    # the same seed, the same sample; fewer rows than the cap: every row, as the model alone
+    assert residual.RowCapped(Recorder(), 10, 4).fit(X, y).estimator_.seen_ == capped.estimator_.seen_
+    assert residual.RowCapped(Recorder(), 10, 5).fit(X, y).estimator_.seen_ != capped.estimator_.seen_
+    assert residual.RowCapped(Recorder(), n, 4).fit(X, y).estimator_.seen_ == set(range(n))
+    # a frame is sampled by position
+    frame = pd.DataFrame(X, index=np.arange(n) + 100)
+    assert residual.RowCapped(Recorder(), 10, 4).fit(frame, y).estimator_.seen_ == capped.estimator_.seen_
+
+
+def test_cross_validation_reports_the_rows_a_capped_model_trained_on():
+    FITTED.clear()
+    n = 40
+    X = np.column_stack([np.arange(n), np.linspace(0, 1, n)])
+    per_fold, oof = cross_validate(residual.RowCapped(Recorder(), 12, 0), X, np.arange(n, dtype=float), 4, 3)
+    assert per_fold["n_train"].tolist() == [12] * 4 and per_fold["n_test"].sum() == n
+    for model, (train, test) in zip(FITTED, folds(n, 4, seed=3)):
+        assert model.seen_ < set(train.tolist()) and model.predicted_ == set(test.tolist())
+    assert residual.capped_note(12, 30).startswith("; each XGBoost model fitted on a seeded sample of at most 12 ")
+    assert residual.capped_note(12, 12) == "" and residual.capped_note(None, 10**6) == ""
+
+
 def test_splice_keeps_fractions_put_into_an_integer_column():
     np.testing.assert_array_equal(splice_out_of_fold(np.array([10, 11, 12]), [1], [-1.5]), [10.0, -1.5, 12.0])
 
@@ -594,6 +625,11 @@ def test_model_save_load_round_trip(tiny_residual_data, tmp_path):
     model = residual.make_model(params, seed=0).fit(X, y)
     path = tmp_path / "model.json"
     residual.save_model(model, path)
+    # a row-capped model saves the XGBoost model it fitted
+    capped = residual.make_model(params, seed=0, max_train_rows=len(y) // 2).fit(X, y)
+    residual.save_model(capped, tmp_path / "capped.json")
+    np.testing.assert_array_equal(residual.load_model(tmp_path / "capped.json").predict(X), capped.predict(X))
+    assert not np.array_equal(capped.predict(X), model.predict(X))
     json.loads(path.read_text())  # plain JSON text, not a pickle or UBJSON
     loaded = residual.load_model(path)
     np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
@@ -751,28 +787,64 @@ def test_tuning_workers_sample_apart_and_each_takes_the_warm_start(tmp_path):
         assert warm == best and cold != best
 
 
-@pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
-def test_csv_writer_gives_pandas_float_format_text(tmp_path, sep, decimal):
-    from hybridtwin import files
-
-    frame = pd.DataFrame(
+def _table_to_write():
+    return pd.DataFrame(
         {
-            "x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf],
-            "n": [1, 2, 3, 4, 5],
-            "text": ["a", "b", "c", "d", "e"],
-            "flag": [True, False, True, False, True],
+            "x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf, 43.4761234567, 0.125, -1.5e-20],
+            "n": [1, 2, 3, 4, 5, 6, 7, 8],
+            "text": ["a", "b, with a comma", 'a "quote"', "d", "", None, "ä", "h"],
+            "flag": [True, False, True, False, True, True, False, False],
         }
     )
-    files.write_csv(frame, tmp_path / "ours.csv", sep=sep, decimal=decimal)
+
+
+def test_csv_writer_with_a_decimal_comma_gives_pandas_float_format_text(tmp_path):
+    from hybridtwin import files
+
+    frame = _table_to_write()
+    files.write_csv(frame, tmp_path / "ours.csv", sep=";", decimal=",")
     frame.to_csv(
-        tmp_path / "pandas.csv",
-        index=False,
-        float_format=files.FLOAT_FORMAT,
-        lineterminator="\n",
-        sep=sep,
-        decimal=decimal,
+        tmp_path / "pandas.csv", index=False, float_format=files.FLOAT_FORMAT, lineterminator="\n", sep=";", decimal=","
     )
     assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp_path, sep):
+    from hybridtwin import files
+
+    frame = _table_to_write()
+    files.write_csv(frame, tmp_path / "ours.csv", sep=sep)
+    back = pd.read_csv(tmp_path / "ours.csv", sep=sep, keep_default_na=False, na_values=[""])
+    expected = frame.assign(x=[float(files.FLOAT_FORMAT % value) for value in frame["x"]])
+    expected["text"] = expected["text"].replace("", None)  # an empty text reads back as missing, as with pandas
+    pd.testing.assert_frame_equal(back, expected, check_dtype=False)
+    assert back["x"].tolist()[5] == 43.476123 and back["flag"].dtype == bool
+    # readable as any new file is (a temporary file alone would be private)
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (tmp_path / "ours.csv").stat().st_mode & 0o777 == 0o666 & ~mask
+    # exact digits: every float reads back to itself
+    files.write_csv(frame, tmp_path / "exact.csv", float_format=None, sep=sep)
+    assert pd.read_csv(tmp_path / "exact.csv", sep=sep)["x"].tolist()[5] == 43.4761234567
+
+
+def test_rounding_to_significant_digits_agrees_with_percent_g(tmp_path):
+    from hybridtwin import files
+
+    rng = np.random.default_rng(0)
+    values = np.concatenate(
+        [
+            rng.normal(0, 1, 20_000) * 10.0 ** rng.integers(-300, 300, 20_000),
+            [0.0, -0.0, np.nan, np.inf, -np.inf, 5e-324, 1.7976931348623157e308, 0.125, 0.135, 999.99999999, 9.5],
+        ]
+    )
+    for digits in (1, 2, 8, 10):
+        expected = np.array([float(f"%.{digits}g" % value) for value in values])
+        np.testing.assert_array_equal(files.rounded_to_significant(values, digits), expected)
+    with pytest.raises(ValueError, match="1 to 10 significant"):
+        files.write_csv(pd.DataFrame({"x": [1.0]}), tmp_path / "unused.csv", float_format="%.11g")
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_study_on_new_data_starts_from_the_earlier_studys_best_trials(tmp_path):

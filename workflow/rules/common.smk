@@ -26,6 +26,7 @@ INPUTS = list(config["columns"]["inputs"])
 TARGET = config["columns"]["target"]
 SEED = config["seed"]
 FOLDS = config["cv"]["folds"]
+MAX_TRAIN_ROWS = config["residual_model"]["max_train_rows"]
 UNIT = config["units"]["target"]  # of the target, in every table, figure and text
 
 # every rule's params carry a hash of the package's code, so a change there reruns what it affects

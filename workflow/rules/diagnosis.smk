@@ -66,6 +66,7 @@ rule model_extension:
         seed=SEED,
         matched_measured=config["columns"]["matched_measured"],
         blocks=config["intervals"]["blocks"],
+        max_train_rows=MAX_TRAIN_ROWS,
     script:
         "../../scripts/model_extension.py"
 

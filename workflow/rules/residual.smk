@@ -82,6 +82,7 @@ rule residual_cv:
         inputs=INPUTS,
         folds=FOLDS,
         seed=SEED,
+        max_train_rows=MAX_TRAIN_ROWS,
     script:
         "../../scripts/residual_cv.py"
 
@@ -123,5 +124,6 @@ rule residual_fit:
         code=PACKAGE_CODE,
         inputs=INPUTS,
         seed=SEED,
+        max_train_rows=MAX_TRAIN_ROWS,
     script:
         "../../scripts/residual_fit.py"
