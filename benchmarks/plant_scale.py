@@ -6,7 +6,7 @@ Runs ``snakemake --cores 2`` on the default config with ``demo.n_production`` se
 its own results folder (``runs/scale_<rows>``, so the demo's results stay): first only the demo plant's
 files (rule demo_data, timed apart, since a plant's own run starts from its files), then the whole
 workflow on them. Prints that run's wall time and the per-rule table from the Snakemake benchmark
-files (slowest first; demo_data among them).
+files (slowest first; demo_data among them), and the largest memory of all its processes at once.
 """
 
 import argparse
@@ -16,10 +16,27 @@ import tempfile
 import time
 from pathlib import Path
 
+import psutil
 import yaml
 
 sys.path.insert(0, str(Path(__file__).parent))
 from workflow_timing import main as timing_table  # noqa: E402
+
+
+def peak_memory_of(process: subprocess.Popen, every: float = 0.5) -> int:
+    """Wait for ``process``; the largest sum of resident memory of it and all its children seen meanwhile
+    (jobs running side by side count together, which Snakemake's per-rule benchmark files do not show)."""
+    root, peak = psutil.Process(process.pid), 0
+    while process.poll() is None:
+        total = 0
+        for member in [root, *root.children(recursive=True)]:
+            try:
+                total += member.memory_info().rss
+            except psutil.Error:
+                pass  # ended between the listing and the reading
+        peak = max(peak, total)
+        time.sleep(every)
+    return peak
 
 
 def main() -> None:
@@ -37,14 +54,19 @@ def main() -> None:
     command = ["snakemake", "--cores", str(args.cores), "--configfile", handle.name]
     # the demo plant's data first, apart: a plant's own run starts from its files
     start = time.perf_counter()
-    made = subprocess.run([*command, *config["data"].values()])
+    made = subprocess.run([*command[:1], *config["data"].values(), *command[1:]])  # targets before --configfile
     made_seconds = time.perf_counter() - start
     start = time.perf_counter()
-    run = subprocess.run(command) if made.returncode == 0 else made
+    if made.returncode == 0:
+        run = subprocess.Popen(command)
+        peak = peak_memory_of(run)
+    else:
+        run, peak = made, 0
     seconds = time.perf_counter() - start
     print(
         f"\n{args.rows:,} production rows, {args.cores} cores: the workflow on the plant's files in {seconds:.0f} s "
-        f"(exit {run.returncode}); generating the demo plant's files before it took {made_seconds:.0f} s\n"
+        f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once; generating the demo "
+        f"plant's files before it took {made_seconds:.0f} s\n"
     )
     timing_table(f"{results}/benchmarks")
 

@@ -19,7 +19,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 
 from . import forms
 from .causes import Term
-from .crossval import splice_out_of_fold
+from .crossval import splice_out_of_fold, training_subset
 from .files import in_support
 from .metrics import rmse, signed_rank_p_value
 
@@ -148,18 +148,25 @@ def guarded(extended_hybrid, hybrid, in_support, out_of_support: bool) -> np.nda
     return np.where(np.asarray(in_support, bool), extended_hybrid, hybrid)
 
 
-def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb) -> Models:
+def fit_models(
+    frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, max_rows: int | None = None, seed=0
+) -> Models:
+    """The extension and the XGBoost remainder, both on a seeded sample of at most ``max_rows`` rows."""
+    rows = training_subset(len(residual), max_rows or len(residual), seed)
+    frame, X, residual = frame.iloc[rows], X[rows], residual[rows]
     extension = DiscrepancyExtension(terms).fit(frame, residual)
     remainder = make_xgb().fit(X, residual - extension.predict(frame))
     return Models(extension, remainder)
 
 
-def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, splits):
+def cross_validated(
+    frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, splits, max_rows=None, seed=0
+):
     """Out-of-fold residual corrections of the extension and the extended hybrid."""
     extended = np.empty(len(residual))
     extended_hybrid = np.empty(len(residual))
     for train, test in splits:
-        models = fit_models(frame.iloc[train], X[train], residual[train], terms, make_xgb)
+        models = fit_models(frame.iloc[train], X[train], residual[train], terms, make_xgb, max_rows, seed)
         extended[test] = models.extension.predict(frame.iloc[test])
         extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
     return extended, extended_hybrid
@@ -187,6 +194,8 @@ def evaluate(
     make_xgb,
     splits,
     choosing=None,
+    max_train_rows: int | None = None,
+    seed: int = 0,
 ) -> Evaluation:
     """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
 
@@ -194,7 +203,8 @@ def evaluate(
     hybrid's predictions (pred_hybrid_oof); ``matched_cases``: in_support, surrogate and hybrid predictions per
     matched case. ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold
     predictions. ``choosing``: the production rows whose measured values decide, out of the support, whether
-    the extended hybrid stands there (:func:`keeps_out_of_support`; None: all rows).
+    the extended hybrid stands there (:func:`keeps_out_of_support`; None: all rows). Each fit takes a seeded
+    sample of at most ``max_train_rows`` of its rows.
     """
     if len(matched_cases) != len(matched):
         raise ValueError(f"{len(matched_cases)} matched-case predictions for {len(matched)} matched cases")
@@ -202,7 +212,7 @@ def evaluate(
     X = production[list(inputs)].to_numpy(float)
     r = residuals["residual_approx"].to_numpy(float)
     surrogate = residuals["pred_surrogate"].to_numpy(float)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb)
+    models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb, max_train_rows, seed)
     extended = surrogate + models.extension.predict(production)
     extended_hybrid = extended + models.remainder.predict(X)
     inside = in_support(residuals)
@@ -213,7 +223,7 @@ def evaluate(
         residuals["measured"], extended_hybrid, hybrid_final, inside, choosing
     )
     oof_extended, oof_extended_hybrid = cross_validated(
-        production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits
+        production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits, max_train_rows, seed
     )
     scored = {
         "surrogate": surrogate,

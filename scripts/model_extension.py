@@ -35,6 +35,8 @@ def main(snakemake):
         make_xgb,
         splits,
         choosing,
+        p.max_train_rows,
+        p.seed,
     )
     truth = noise = None
     if snakemake.input.get("truth"):

@@ -9,6 +9,7 @@ import pytest
 from sklearn.dummy import DummyRegressor
 
 from hybridtwin.causes import Cause, Term
+from hybridtwin.crossval import training_subset
 from hybridtwin.extension import (
     DiscrepancyExtension,
     evaluate,
@@ -138,7 +139,13 @@ def test_gain_table_scores_out_of_the_support_on_the_test_rows_only():
 
 
 def evaluation_by_hand(
-    measured_outside=(16.0, 19.0), matched_in_support=True, choosing=None, more_outside=0, more_like="extended"
+    measured_outside=(16.0, 19.0),
+    matched_in_support=True,
+    choosing=None,
+    more_outside=0,
+    more_like="extended",
+    max_train_rows=None,
+    seed=0,
 ):
     """Eight parts, six in support (rows 0, 2, 3, 5, 6, 7) with residuals 0, 0, 0, 0, 0, 6; the two outside
     (rows 1 and 4) carry 100, which no model may see. No terms: the extension is the offset (the training
@@ -162,7 +169,21 @@ def evaluation_by_hand(
     matched_cases = pd.DataFrame({"in_support": [matched_in_support], "pred_surrogate": [20.0], "pred_hybrid": [21.0]})
     splits = [(np.array([0, 1, 2]), np.array([3, 4, 5])), (np.array([3, 4, 5]), np.array([0, 1, 2]))]
     largest = partial(DummyRegressor, strategy="quantile", quantile=1.0)
-    return evaluate(production, residuals, hybrid, matched, matched_cases, ["a"], (), largest, splits, choosing)
+    inputs = ["a"]
+    return evaluate(
+        production,
+        residuals,
+        hybrid,
+        matched,
+        matched_cases,
+        inputs,
+        (),
+        largest,
+        splits,
+        choosing,
+        max_train_rows,
+        seed,
+    )
 
 
 def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
@@ -180,6 +201,21 @@ def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
     np.testing.assert_allclose(result.scored["hybrid"], np.arange(108.0) + 50)
     assert result.models.extension.offset_ == pytest.approx(1.0)
     assert result.models.out_of_support
+
+
+def test_with_a_cap_each_fit_takes_a_seeded_sample_of_its_rows():
+    # in-support residuals 0, 0, 0, 0, 0, 6: a sample of three of them, by the seed
+    residual = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 6.0])
+    for seed in range(6):
+        sample = residual[training_subset(6, 3, seed)]
+        result = evaluation_by_hand(more_outside=100, max_train_rows=3, seed=seed)
+        assert result.models.extension.offset_ == pytest.approx(sample.mean())
+        np.testing.assert_allclose(result.production["pred_extended_hybrid"][0], 10.0 + sample.max())
+    # the folds train on three rows each: no fewer than they have, so the in-support parts' out-of-fold values stay
+    inside = [0, 2, 3, 5, 6, 7]
+    capped = evaluation_by_hand(more_outside=100, max_train_rows=3).production["pred_extended_oof"].to_numpy()
+    whole = evaluation_by_hand(more_outside=100).production["pred_extended_oof"].to_numpy()
+    np.testing.assert_allclose(capped[inside], whole[inside])
 
 
 def test_out_of_the_support_the_paper_hybrid_stands_where_it_measures_closer():

@@ -135,6 +135,30 @@ def test_intervals_by_region_hold_their_level_where_one_pooled_interval_does_not
     assert pooled.set_index("region").loc["out_of_support_4", "coverage"] < LEVEL - 0.05
 
 
+def test_a_long_log_is_scored_on_a_seeded_sample_of_test_rows_per_region_and_says_so(monkeypatch):
+    inside, distance, sd, truth, measured = plant()
+    edges = intervals.distance_edges(distance[~inside], 4)
+    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    assert region[inside].tolist() == ["in_support"] * inside.sum()
+    assert set(region[~inside]) == {f"out_of_support_{b}" for b in range(1, 5)}
+    assert (region[~inside & (distance > edges[-1])] == "out_of_support_4").all()
+    calibration = intervals.calibration_rows(len(measured), 20)
+    whole = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
+    assert "seeded sample" not in whole["evaluated_on"].iloc[0]
+    monkeypatch.setattr(intervals, "MAX_TEST_ROWS", 2000)
+    sampled = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
+    assert (sampled["n_test"] == 2000).all() and (whole["n_test"] > 2000).all()
+    assert "a seeded sample of 2,000 test rows per region" in sampled["evaluated_on"].iloc[0]
+    # the sample's coverage estimates the whole's
+    assert np.abs(sampled["coverage"] - whole["coverage"]).max() < 0.03
+    # by hand: the in-support row of the sample
+    rows = intervals._subsample(np.flatnonzero(~calibration & inside), 2000, 3)
+    fitted = intervals.RegionIntervals.fit(measured, {"hybrid": truth}, region, calibration, edges, seed=3)
+    lower, upper = fitted.interval("hybrid", truth[rows], region[rows], LEVEL)
+    row = sampled[(sampled["region"] == "in_support") & (sampled["model"] == "hybrid")].iloc[0]
+    assert row["coverage"] == np.mean((measured[rows] >= lower) & (measured[rows] <= upper))
+
+
 def test_the_recommended_model_is_the_better_one_in_each_region():
     inside, distance, sd, truth, measured = plant()
     rng = np.random.default_rng(5)
