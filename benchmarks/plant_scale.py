@@ -23,20 +23,25 @@ sys.path.insert(0, str(Path(__file__).parent))
 from workflow_timing import main as timing_table  # noqa: E402
 
 
-def peak_memory_of(process: subprocess.Popen, every: float = 0.5) -> int:
+def peak_memory_of(process: subprocess.Popen, every: float = 0.5) -> tuple[int, list[str]]:
     """Wait for ``process``; the largest sum of resident memory of it and all its children seen meanwhile
-    (jobs running side by side count together, which Snakemake's per-rule benchmark files do not show)."""
-    root, peak = psutil.Process(process.pid), 0
+    (jobs running side by side count together, which Snakemake's per-rule benchmark files do not show), and
+    the rule scripts that ran at that moment."""
+    root, peak, at_peak = psutil.Process(process.pid), 0, []
     while process.poll() is None:
-        total = 0
+        total, scripts = 0, []
         for member in [root, *root.children(recursive=True)]:
             try:
                 total += member.memory_info().rss
-            except psutil.Error:
+                scripts += [
+                    Path(part).name.split(".")[1] for part in member.cmdline() if "/.snakemake/scripts/" in part
+                ]
+            except (psutil.Error, IndexError):
                 pass  # ended between the listing and the reading
-        peak = max(peak, total)
+        if total > peak:
+            peak, at_peak = total, sorted(set(scripts))
         time.sleep(every)
-    return peak
+    return peak, at_peak
 
 
 def main() -> None:
@@ -59,14 +64,15 @@ def main() -> None:
     start = time.perf_counter()
     if made.returncode == 0:
         run = subprocess.Popen(command)
-        peak = peak_memory_of(run)
+        peak, at_peak = peak_memory_of(run)
     else:
-        run, peak = made, 0
+        run, peak, at_peak = made, 0, []
     seconds = time.perf_counter() - start
     print(
         f"\n{args.rows:,} production rows, {args.cores} cores: the workflow on the plant's files in {seconds:.0f} s "
-        f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once; generating the demo "
-        f"plant's files before it took {made_seconds:.0f} s\n"
+        f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once (rule scripts then "
+        f"running: {', '.join(at_peak) or 'none'}); generating the demo plant's files before it took "
+        f"{made_seconds:.0f} s\n"
     )
     timing_table(f"{results}/benchmarks")
 

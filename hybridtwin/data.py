@@ -542,7 +542,9 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     ``config`` is checked against the schema (:func:`hybridtwin.config.check`): here only what needs the data.
 
     Each file is checked with what it needs besides itself: production against the DoE's ranges,
-    matched cases against the production log (a matched case must not be a training part).
+    matched cases against the production log (a matched case must not be a training part). A file named in
+    ``config["checked_copies"]`` (role -> path of its checked copy, as the workflow writes it) is not checked
+    again where it is only what another file is checked against: its copy's input columns are read.
     """
     columns = Columns.from_config(config["columns"])
     fmt = CsvFormat.from_config(config["csv"])
@@ -553,7 +555,10 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
     frames = {}
     if "doe" in needed:
         frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=config["cv"]["folds"], k=config["gate"]["k"])
-    if "production" in needed:
+    copies = config.get("checked_copies", {})
+    if "production" in needed and "production" not in roles and "production" in copies:
+        frames["production"] = pd.read_csv(copies["production"], usecols=list(columns.inputs))
+    elif "production" in needed:
         frames["production"] = load_production(paths["production"], columns, fmt)
     if "matched" in needed:
         frames["matched"] = load_matched(paths["matched"], columns, fmt)

@@ -24,8 +24,10 @@ def main(snakemake):
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(in_support(residuals)))
     # the blocks that calibrate the intervals choose whether the extended hybrid stands out of the support
     choosing = intervals.calibration_rows(len(residuals), p.blocks)
+    # the inputs and the causes' columns: on a long log, not every column of it
+    causes_columns = sorted(extension.DiscrepancyExtension(terms).columns - set(p.inputs))
     result = extension.evaluate(
-        read_checked(snakemake.input.production),
+        read_checked(snakemake.input.production, [*p.inputs, *causes_columns]),
         residuals,
         read_checked(snakemake.input.hybrid),
         matched,

@@ -13,7 +13,7 @@ def main(snakemake):
     fit = peers.fit_peer(
         kind,
         read_checked(snakemake.input.doe),
-        read_checked(snakemake.input.production),
+        read_checked(snakemake.input.production, p.inputs),
         read_checked(snakemake.input.residuals),
         p.inputs,
         p.target,

@@ -7,7 +7,7 @@ from hybridtwin.tables import production_predictions
 
 
 def main(snakemake):
-    production = read_checked(snakemake.input.production)
+    production = read_checked(snakemake.input.production, snakemake.params.inputs)
     X = production[snakemake.params.inputs].to_numpy(float)
     table = production_predictions(
         residuals=read_checked(snakemake.input.residuals),

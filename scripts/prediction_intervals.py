@@ -10,7 +10,7 @@ from hybridtwin.surrogate import GPRSurrogate
 def main(snakemake):
     p = snakemake.params
     predictions = read_checked(snakemake.input.predictions)
-    production = read_checked(snakemake.input.production)
+    production = read_checked(snakemake.input.production, p.inputs)
     doe = read_checked(snakemake.input.doe)
     threshold = float(files.read_json(snakemake.input.gate)["threshold"])
     truth = noise = None

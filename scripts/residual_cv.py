@@ -13,8 +13,8 @@ from hybridtwin.runner import run
 
 
 def main(snakemake):
-    production = read_checked(snakemake.input.production)
-    residuals = read_checked(snakemake.input.residuals)
+    production = read_checked(snakemake.input.production, snakemake.params.inputs)
+    residuals = read_checked(snakemake.input.residuals, ["residual_approx", "in_support"])
     rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
     X = production.loc[rows, snakemake.params.inputs]
     y = residuals.loc[rows, "residual_approx"].to_numpy(float)

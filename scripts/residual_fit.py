@@ -6,8 +6,8 @@ from hybridtwin.runner import run
 
 
 def main(snakemake):
-    production = read_checked(snakemake.input.production)
-    residuals = read_checked(snakemake.input.residuals)
+    production = read_checked(snakemake.input.production, snakemake.params.inputs)
+    residuals = read_checked(snakemake.input.residuals, ["residual_approx", "in_support"])
     rows = residual.training_rows(residuals["in_support"], snakemake.wildcards.training)
     params = files.read_json(snakemake.input.best)["params"]
     model = residual.make_model(params, snakemake.params.seed, snakemake.threads, snakemake.params.max_train_rows)

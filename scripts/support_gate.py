@@ -7,7 +7,7 @@ from hybridtwin.runner import run
 
 def main(snakemake):
     inputs = snakemake.params.inputs
-    doe, production = (files.read_checked(snakemake.input[name]) for name in ("doe", "production"))
+    doe, production = (files.read_checked(snakemake.input[name], inputs) for name in ("doe", "production"))
     standardizer = DoEStandardizer.from_dict(files.read_json(snakemake.input.standardization))
     gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile, standardizer=standardizer).fit(
         doe[inputs]

@@ -14,8 +14,8 @@ from hybridtwin.runner import run
 
 def main(snakemake):
     p = snakemake.params
-    production = read_checked(snakemake.input.production)
-    residuals = read_checked(snakemake.input.residuals)
+    production = read_checked(snakemake.input.production, p.inputs)
+    residuals = read_checked(snakemake.input.residuals, ["residual_approx", "in_support"])
     rows, tuned_on = residual.tuning_rows(in_support(residuals), p.max_rows, p.seed)
     space = residual.search_space(p.search_space)
     worker = int(snakemake.wildcards.get("worker", 0))

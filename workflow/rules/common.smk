@@ -48,10 +48,18 @@ CHECKED = {role: f"{RESULTS}/data/{role}.csv" for role in ("doe", "production", 
 CHECKED_AGAINST = {"doe": [], "production": ["doe"], "matched": ["production"]}
 
 
+# a file checked against production reads production's checked copy (its input columns), not the raw log
+# again: on a log of millions of parts that second check would cost as much as the first
+AGAINST_CHECKED_COPY = {"production"}
+
+
 def raw_inputs_of(wildcards):
     return {
         "table": config["data"][wildcards.role],
-        **{other: config["data"][other] for other in CHECKED_AGAINST[wildcards.role]},
+        **{
+            other: CHECKED[other] if other in AGAINST_CHECKED_COPY else config["data"][other]
+            for other in CHECKED_AGAINST[wildcards.role]
+        },
     }
 
 
@@ -63,6 +71,9 @@ def validation_settings(wildcards):
         "data": {role: config["data"][role] for role in roles},
         "columns": config["columns"],
         "csv": config["csv"],
+        "checked_copies": {
+            other: CHECKED[other] for other in CHECKED_AGAINST[wildcards.role] if other in AGAINST_CHECKED_COPY
+        },
     }
     if "doe" in roles:
         settings.update(cv=config["cv"], gate=config["gate"])
