@@ -87,7 +87,7 @@ def capped_note(max_train_rows: int | None, n_rows: int) -> str:
     if max_train_rows is None or n_rows <= max_train_rows:
         return ""
     return (
-        f"; each XGBoost model fitted on a seeded sample of at most {max_train_rows:,} of its training rows "
+        f"; each model fitted on a seeded sample of at most {max_train_rows:,} of its training rows "
         "(residual_model.max_train_rows)"
     )
 

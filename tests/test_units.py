@@ -368,7 +368,7 @@ def test_cross_validation_reports_the_rows_a_capped_model_trained_on():
     assert per_fold["n_train"].tolist() == [12] * 4 and per_fold["n_test"].sum() == n
     for model, (train, test) in zip(FITTED, folds(n, 4, seed=3)):
         assert model.seen_ < set(train.tolist()) and model.predicted_ == set(test.tolist())
-    assert residual.capped_note(12, 30).startswith("; each XGBoost model fitted on a seeded sample of at most 12 ")
+    assert residual.capped_note(12, 30).startswith("; each model fitted on a seeded sample of at most 12 ")
     assert residual.capped_note(12, 12) == "" and residual.capped_note(None, 10**6) == ""
 
 
