@@ -90,8 +90,8 @@ class Proposal:
     share_before: float
     surrogate_std: np.ndarray
     share_after_fixed_threshold: list[float]  # the same with today's threshold held
-    n_counted: int = 0  # the parts counted (a seeded sample of n_production on a larger log)
-    n_production: int = 0
+    n_counted: int  # the parts counted (a seeded sample of n_production on a larger log)
+    n_production: int
 
     @property
     def parts_per_counted_part(self) -> float:

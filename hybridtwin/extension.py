@@ -296,7 +296,7 @@ def gain_table(
     table["evaluated_on"] = (
         "measured production values: in support out-of-fold (K-fold CV; the causes and forms "
         "were chosen on all in-support rows, only their parameters refitted per fold), out of "
-        "support with models fitted on all in-support rows (never on these rows)"
+        "support with models fitted on the in-support rows (never on these rows)"
         + (
             ""
             if test is None

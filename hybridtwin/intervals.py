@@ -436,9 +436,14 @@ def coverage_table(
         if not in_region.any():
             continue
         label = _region_label(name, edges, threshold) if name != "all" else "all production rows"
+        region_rows = np.flatnonzero(in_region)
         for model in models:
             for method, (intervals, labels, predictions) in methods.items():
-                idx = _subsample(np.flatnonzero(in_region), MAX_TEST_ROWS, seed)
+                # a model is sampled among the rows it has a value for (a peer predicts a sample of a long log)
+                valued = (
+                    region_rows if model == "recommended" else region_rows[np.isfinite(predictions[model][region_rows])]
+                )
+                idx = _subsample(valued, MAX_TEST_ROWS, seed)
                 prediction, lower, upper = _bounds(intervals, predictions, labels, idx, model, level)
                 ok = np.isfinite(prediction) & np.isfinite(lower)
                 if not ok.any():

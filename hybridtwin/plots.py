@@ -8,6 +8,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .crossval import training_subset  # noqa: E402
+
+PCA_ROWS = 200_000  # production parts the enrichment map's axes are fitted on (every part of a shorter log)
+
 plt.rcParams.update(
     {"figure.dpi": 120, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9, "svg.hashsalt": "hybridtwin"}
 )
@@ -234,8 +238,9 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
     doe, production, proposals = (np.asarray(a, float) for a in (doe, production, proposals))
     mean, scale = doe.mean(axis=0), doe.std(axis=0, ddof=1)
     shown = np.random.default_rng(seed).choice(len(production), min(len(production), 4000), replace=False)
-    # the axes of the DoE and the parts shown: a plant log of millions of parts adds nothing to them
-    pca = PCA(n_components=2, random_state=seed).fit((np.vstack([doe, production[shown]]) - mean) / scale)
+    # the axes of the DoE and the production (a seeded sample of a log of millions of parts: it adds nothing)
+    fitted_on = np.vstack([doe, production[training_subset(len(production), PCA_ROWS, seed)]])
+    pca = PCA(n_components=2, random_state=seed).fit((fitted_on - mean) / scale)
     project = lambda X: pca.transform((X - mean) / scale)  # noqa: E731
     inside = np.asarray(inside, bool)[shown]
     figure, axis = plt.subplots(figsize=(6, 5))

@@ -53,7 +53,7 @@ def dataset_summary(
     )
 
 
-def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
+def sensitivity_table(predictions: pd.DataFrame, sample_note: str = "") -> pd.DataFrame:
     """Table 5: production RMSE in and out of the support for four prediction strategies.
 
     Reads the columns of :func:`production_predictions`. No strategy is scored
@@ -82,7 +82,7 @@ def sensitivity_table(predictions: pd.DataFrame) -> pd.DataFrame:
         "measured production values; residual models scored out-of-fold on their own "
         "training rows (a split other than the tuning's), the final filtered model on "
         "out-of-support rows; both residual models use the hyperparameters tuned on "
-        "in-support rows"
+        "in-support rows" + sample_note
     )
     return table
 

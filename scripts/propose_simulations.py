@@ -30,7 +30,10 @@ def main(snakemake):
     )
     table = enrichment.proposals_table(proposal, production, p.inputs)
     if proposal.share_before == 1.0:
-        logging.warning("every production part is already in the support: nothing to propose (empty table written)")
+        logging.warning(
+            "every production part %s is already in the support: nothing to propose (empty table written)",
+            "counted" if proposal.n_counted == proposal.n_production else "of the sample counted (enrichment.max_rows)",
+        )
     elif len(table) < settings.n_points:
         logging.info("%d point(s) bring every part into the support; no more are proposed", len(table))
     files.write_csv(table, snakemake.output.table)

@@ -37,7 +37,7 @@ def main(snakemake):
             f"({'in support' if snakemake.wildcards.training == 'filtered' else 'all'}), "
             f"{snakemake.params.folds}-fold CV on a split other than the tuning's; hyperparameters "
             "were tuned by CV on the in-support rows"
-            + residual.capped_note(snakemake.params.max_train_rows, len(y) - int(per_fold["n_test"].min())),
+            + residual.capped_note(snakemake.params.max_train_rows, len(y)),  # the final fit takes every row
         ),
         snakemake.output.table,
     )

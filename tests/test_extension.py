@@ -116,7 +116,7 @@ def test_gain_table_counts_each_region_and_says_what_it_scored():
     assert "rmse_truth_out_of_support" not in table.columns
     assert row["evaluated_on"] == (
         "measured production values: in support out-of-fold (K-fold CV; the causes and forms were chosen on all "
-        "in-support rows, only their parameters refitted per fold), out of support with models fitted on all "
+        "in-support rows, only their parameters refitted per fold), out of support with models fitted on the "
         "in-support rows (never on these rows); matched cases (never used for fitting)"
     )
     without_noise = gain_table(
@@ -216,6 +216,12 @@ def test_with_a_cap_each_fit_takes_a_seeded_sample_of_its_rows():
     capped = evaluation_by_hand(more_outside=100, max_train_rows=3).production["pred_extended_oof"].to_numpy()
     whole = evaluation_by_hand(more_outside=100).production["pred_extended_oof"].to_numpy()
     np.testing.assert_allclose(capped[inside], whole[inside])
+    # with two of three, each fold's offset is the mean of its sample's residuals (fold 2 trains on 0, 0, 6)
+    for seed in range(4):
+        oof = evaluation_by_hand(more_outside=100, max_train_rows=2, seed=seed).production["pred_extended_oof"]
+        sample = np.array([0.0, 0.0, 6.0])[training_subset(3, 2, seed)]
+        np.testing.assert_allclose(oof.to_numpy()[[0, 2, 3]], 10.0 + sample.mean())  # fold 2 predicts rows 0, 2, 3
+        np.testing.assert_allclose(oof.to_numpy()[[5, 6, 7]], 10.0)  # fold 1 trains on zeros
 
 
 def test_out_of_the_support_the_paper_hybrid_stands_where_it_measures_closer():

@@ -157,6 +157,36 @@ def test_a_long_log_is_scored_on_a_seeded_sample_of_test_rows_per_region_and_say
     lower, upper = fitted.interval("hybrid", truth[rows], region[rows], LEVEL)
     row = sampled[(sampled["region"] == "in_support") & (sampled["model"] == "hybrid")].iloc[0]
     assert row["coverage"] == np.mean((measured[rows] >= lower) & (measured[rows] <= upper))
+    # a model with values on a few rows only (a peer on a long log) is sampled among those rows
+    peer = np.where(np.arange(len(truth)) % 2 == 0, truth, np.nan)
+    both = intervals.coverage_table(measured, {"hybrid": truth, "peer": peer}, region, calibration, edges, 1, LEVEL)
+    scored = both[(both["model"] == "peer") & (both["region"] != "all") & (both["calibration"] == "by_region")]
+    valued = [np.sum(~calibration & (region == name) & np.isfinite(peer)) for name in scored["region"]]
+    assert scored["n_test"].tolist() == [min(n, 2000) for n in valued] and max(valued) > 2000
+
+
+def test_a_distance_on_a_bin_edge_belongs_to_the_nearer_bin():
+    labels = intervals.regions([True, False, False, False], np.zeros(4, bool), [0.5, 1.0, 2.0, 2.5], [1.0, 2.0])
+    assert labels.tolist() == ["in_support", "out_of_support_2", "out_of_support_3", "out_of_support_3"]
+
+
+def test_the_figure_shows_each_shown_rows_own_error_and_region(monkeypatch):
+    inside, distance, sd, truth, measured = plant(n=6000)
+    edges = intervals.distance_edges(distance[~inside], 3)
+    region = intervals.Regions.same(intervals.regions(inside, np.zeros(len(inside), bool), distance, edges))
+    calibration = intervals.calibration_rows(len(measured), 20)
+    honest = {"hybrid": truth + 0.5}
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, edges, distance, 0)
+    table = intervals.coverage_table(measured, honest, region, calibration, edges, 1.0, LEVEL)
+    calibrated = intervals.Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
+    monkeypatch.setattr(intervals, "MAX_TEST_ROWS", 500)  # fewer rows than shown: the shown ones are added
+    shown = intervals.figure_data(calibrated, measured, distance, LEVEL, seed=2, n_shown=800)
+    test = np.flatnonzero(~calibration)
+    rows = np.sort(np.random.default_rng(2).choice(test, 800, replace=False))
+    np.testing.assert_allclose(shown["distance"], distance[rows])
+    everywhere = intervals.recommended_prediction(fitted, calibrated.honest, region, LEVEL)["pred_recommended"]
+    np.testing.assert_allclose(shown["error"], measured[rows] - everywhere.to_numpy()[rows])
+    assert shown["region"].tolist() == region.interval[rows].tolist()
 
 
 def test_the_recommended_model_is_the_better_one_in_each_region():

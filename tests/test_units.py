@@ -690,6 +690,9 @@ def test_sensitivity_table_by_hand():
     )
     table = tables.sensitivity_table(predictions).set_index("region")
     assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
+    assert table["evaluated_on"].iloc[0].endswith("tuned on in-support rows")
+    noted = tables.sensitivity_table(predictions, residual.capped_note(3, 4))
+    assert noted["evaluated_on"].iloc[0].endswith("at most 3 of its training rows (residual_model.max_train_rows)")
     expected = {
         "rmse_surrogate_only": (1.0, math.sqrt(6.5), math.sqrt(15 / 4)),
         "rmse_filtered_train_no_gate": (math.sqrt(0.125), math.sqrt(0.5), math.sqrt(1.25 / 4)),
@@ -820,13 +823,63 @@ def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp
     expected["text"] = expected["text"].replace("", None)  # an empty text reads back as missing, as with pandas
     pd.testing.assert_frame_equal(back, expected, check_dtype=False)
     assert back["x"].tolist()[5] == 43.476123 and back["flag"].dtype == bool
-    # readable as any new file is (a temporary file alone would be private)
-    mask = os.umask(0)
-    os.umask(mask)
-    assert (tmp_path / "ours.csv").stat().st_mode & 0o777 == 0o666 & ~mask
     # exact digits: every float reads back to itself
     files.write_csv(frame, tmp_path / "exact.csv", float_format=None, sep=sep)
     assert pd.read_csv(tmp_path / "exact.csv", sep=sep)["x"].tolist()[5] == 43.4761234567
+
+
+def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path, monkeypatch):
+    from hybridtwin import files
+
+    frame = pd.DataFrame(
+        {
+            "x": [1.0 / 3, np.nan, 2.0, -0.0, np.inf, 123456789.0, 0.1],
+            "n": [1, 2, 3, 4, 5, 6, -7],
+            "text": ["a", None, "K26000", "", "ä", "2026-03-02 06:00:00", "b"],
+            "flag": [True, False, True, False, True, True, False],
+        }
+    )
+    arrow_writer, arrow_used = files._write_text_columns, []
+    monkeypatch.setattr(files, "_write_text_columns", lambda *args: arrow_used.append(1) or arrow_writer(*args))
+    for float_format, pandas_format in ((None, None), ("%.3g", "%.3g")):
+        files.write_csv(frame, tmp_path / "ours.csv", float_format=float_format)
+        expected = frame.assign(x=[float(pandas_format % v) for v in frame["x"]]) if pandas_format else frame
+        expected.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
+        assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+    assert len(arrow_used) == 2
+    back = pd.read_csv(tmp_path / "ours.csv")
+    assert back["x"].dtype == float and back["x"].tolist()[2] == 2.0  # a whole float stays a float
+
+
+@pytest.mark.parametrize(
+    "frame",
+    [
+        pd.DataFrame({"x": [1.0, np.nan, 3.0]}),  # one column: pandas writes "" where Arrow would leave a blank line
+        pd.DataFrame({"x": [1, "a"], "y": [1.0, 2.0]}),  # numbers and text in one column
+        pd.DataFrame({"t": pd.to_datetime(["2020-01-01 10:00", "2020-01-02 00:00"]), "y": [1.0, 2.0]}),
+        pd.DataFrame([[1.0, 2.0]], columns=["a", "a"]),  # the same name twice
+        pd.DataFrame({1: [1.0], "1": [2.0]}),  # names that are not text
+        pd.DataFrame({"x": [1.5, 2.5], "y": pd.Categorical(["a", "b"])}),
+        pd.DataFrame({"x": [1.5, 2.5], "n": pd.array([1, None], dtype="Int64")}),
+        pd.DataFrame({"x": [1.5, 2.5], "text": ["a, b", 'say "c"']}),
+        pd.DataFrame({"x, y": [1.5], "z": [2.5]}),
+    ],
+)
+def test_any_other_table_is_written_by_pandas(tmp_path, frame):
+    from hybridtwin import files
+
+    files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
+    frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
+    assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])
+def test_an_output_gets_the_mode_of_any_new_file(tmp_path, monkeypatch, mask):
+    from hybridtwin import files
+
+    monkeypatch.setattr(files, "_UMASK", mask)
+    files.write_json({"a": 1}, tmp_path / "out.json")
+    assert (tmp_path / "out.json").stat().st_mode & 0o777 == 0o666 & ~mask
 
 
 def test_rounding_to_significant_digits_agrees_with_percent_g(tmp_path):
@@ -836,6 +889,7 @@ def test_rounding_to_significant_digits_agrees_with_percent_g(tmp_path):
     values = np.concatenate(
         [
             rng.normal(0, 1, 20_000) * 10.0 ** rng.integers(-300, 300, 20_000),
+            rng.normal(0, 1, 20_000) * 10.0 ** rng.integers(-6, 7, 20_000),  # the sizes of measured values
             [0.0, -0.0, np.nan, np.inf, -np.inf, 5e-324, 1.7976931348623157e308, 0.125, 0.135, 999.99999999, 9.5],
         ]
     )

@@ -90,6 +90,7 @@ rule sensitivity:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
+        max_train_rows=MAX_TRAIN_ROWS,
     script:
         "../../scripts/sensitivity.py"
 
