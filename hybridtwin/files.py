@@ -169,10 +169,13 @@ def _as_arrow_text(frame: pd.DataFrame, digits: int | None, sep: str):
         elif pd.api.types.is_integer_dtype(kind) and not column.isna().any():
             text = pc.cast(pa.array(column.to_numpy()), pa.string())
         elif pd.api.types.is_string_dtype(kind) and not isinstance(kind, pd.CategoricalDtype):
-            values = column.to_numpy(object, na_value=None)
-            if not all(isinstance(value, str) or value is None for value in values.tolist()):
-                return None
-            text = pa.array(values, type=pa.string())
+            if isinstance(kind, pd.StringDtype):
+                text = pa.array(column, type=pa.string(), from_pandas=True)  # text or missing by its dtype
+            else:
+                values = column.to_numpy(object, na_value=None)
+                if not all(isinstance(value, str) or value is None for value in values.tolist()):
+                    return None
+                text = pa.array(values, type=pa.string())
             if pc.any(pc.match_substring_regex(text, _quoted_pattern(sep))).as_py():
                 return None
         else:
