@@ -47,7 +47,7 @@ RECOMMENDABLE = (
 STACK = "stack"  # a non-negative blend of the other recommendable models, per region
 MIN_CALIBRATION_ROWS = 100
 MAX_CALIBRATION_ROWS = 5000
-# test rows scored per region: a coverage near 90% is known to +-0.1 points from 100,000 rows, and a plant log
+# test rows scored per region: a coverage near 90% is known to +-0.2 points (95%) from 100,000 rows, and a plant log
 # of ten million parts would otherwise spend minutes on the table
 MAX_TEST_ROWS = 100_000
 

@@ -58,8 +58,8 @@ def make_model(params: dict, seed: int, n_jobs: int = 1, max_train_rows: int | N
 
 class RowCapped(RegressorMixin, BaseEstimator):
     """An estimator fitted on a seeded sample of at most ``max_rows`` of the rows it is given (all of them
-    when there are fewer): on a plant log of millions of parts, a tree ensemble learns no more from the
-    rest, and its fit time stays bounded. Predicts every row."""
+    when there are fewer): on a plant log of millions of parts its fit time stays bounded. Predicts every
+    row."""
 
     def __init__(self, estimator=None, max_rows: int = 500_000, seed: int = 0):
         self.estimator = estimator

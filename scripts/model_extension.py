@@ -17,8 +17,8 @@ def main(snakemake):
     terms = tuple(Term.from_dict(c) for c in files.read_json(snakemake.input.summary)["selected"])
     params = files.read_json(snakemake.input.best)["params"]
 
-    def make_xgb():
-        return residual.make_model(params, p.seed, snakemake.threads, p.max_train_rows)
+    def make_xgb():  # evaluate samples each fit's rows (max_train_rows) for the forms and XGBoost alike
+        return residual.make_model(params, p.seed, snakemake.threads)
 
     # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(in_support(residuals)))
