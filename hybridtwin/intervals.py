@@ -267,7 +267,8 @@ class RegionIntervals:
         for name in sorted(set(region.interval[calibration])):
             rows = _subsample(np.flatnonzero(calibration & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
             for model, prediction in candidates.items():
-                scored = rows[np.isfinite(prediction[rows])]  # a peer has no honest value on the parts it trained on
+                # a model without an honest value on a row (NaN) is not scored there
+                scored = rows[np.isfinite(prediction[rows])]
                 if len(scored):
                     table.setdefault(model, {})[name] = np.round(
                         np.abs(measured[scored] - prediction[scored]), 6
@@ -476,7 +477,7 @@ def coverage_table(
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
         "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
-        "seen), models never trained on the row outside it; a peer is scored on the rows it did not train on; "
+        "seen), models never trained on the row outside it (a peer's out-of-fold on the parts it trained on too); "
         "coverage of the measured value"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"

@@ -2,13 +2,15 @@
 
 - :class:`GPDiscrepancy`: Kennedy–O'Hagan style, the surrogate plus a Gaussian process of the
   approximate residual (Matérn 5/2, one length scale per input, white noise). Hyperparameters by
-  marginal likelihood on ``n_hyper`` rows, then the GP refitted with them fixed on ``n_fit`` rows
-  (a GP cannot take every in-support part exactly; both subsets are seeded and documented).
+  marginal likelihood on ``n_hyper`` of its ``n_fit`` rows, then the GP refitted with them fixed on all
+  ``n_fit`` (a GP cannot take every in-support part exactly; both subsets are seeded and documented).
 - :class:`CoKriging`: AR1 multi-fidelity co-kriging (SMT's MFK): the simulations as low fidelity,
   ``n_high`` in-support parts' measured values as high fidelity.
 
 Both store their training rows and hyperparameters as JSON and are rebuilt from them exactly
-(no optimizer runs on load, no pickle).
+(no optimizer runs on load, no pickle). On their own training rows they are scored out-of-fold
+(``out_of_fold``: refitted without each fold, the hyperparameters fixed, as the XGBoost residual
+model keeps its tuned hyperparameters in its CV folds).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from .crossval import training_subset
+from .crossval import folds, training_subset
 from .files import in_support
 from .gate import (
     DoEStandardizer,
@@ -76,19 +78,27 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         matrix = np.asarray(X, float)
         y = np.asarray(y, float)
         self.n_features_in_ = matrix.shape[1]
-        hyper_rows = training_subset(len(y), self.n_hyper, self.random_state)
+        self.training_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
+        # the hyperparameters from a seeded part of the same rows: every row the GP learnt from is a training row,
+        # and so has an out-of-fold prediction
+        hyper_rows = self.training_rows_[training_subset(len(self.training_rows_), self.n_hyper, self.random_state)]
         hyper = GPRSurrogate(n_restarts=self.n_restarts, random_state=self.random_state)
         hyper.fit(matrix[hyper_rows], y[hyper_rows])
-        self.fit_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
-        # the same kernel, its hyperparameters fixed, on more rows (GPRSurrogate.from_dict refits without optimizing)
-        state = hyper.to_dict()
-        state.update(
-            inputs=None,
-            X_train=hyper.standardizer_.transform(matrix[self.fit_rows_]).tolist(),
-            y_train=y[self.fit_rows_].tolist(),
+        self.gp_ = _with_rows(
+            hyper.to_dict(), hyper.standardizer_.transform(matrix[self.training_rows_]), y[self.training_rows_]
         )
-        self.gp_ = GPRSurrogate.from_dict(state)
         return self
+
+    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+        """Per training row (in ``training_rows_`` order): the GP, its hyperparameters fixed, refitted
+        without that row's fold."""
+        check_is_fitted(self, "gp_")
+        state = self.gp_.to_dict()
+        Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
+        out = np.empty(len(y))
+        for train, test in folds(len(y), n_folds, seed):
+            out[test] = _batched(_with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
+        return out
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "gp_")
@@ -100,7 +110,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
             "params": self.get_params(),
             "inputs": input_names(self),
             "gp": self.gp_.to_dict(),
-            "n_fit": len(self.fit_rows_),
+            "n_fit": len(self.training_rows_),
         }
 
     @classmethod
@@ -108,9 +118,15 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         model = cls(**data["params"])
         model.gp_ = GPRSurrogate.from_dict(data["gp"])
         model.n_features_in_ = model.gp_.n_features_in_
-        model.fit_rows_ = np.arange(int(data["n_fit"]))
+        model.training_rows_ = np.arange(int(data["n_fit"]))
         restore_inputs(model, data)
         return model
+
+
+def _with_rows(state: dict, Z: np.ndarray, y: np.ndarray) -> GPRSurrogate:
+    """The GP of ``state`` (a GPRSurrogate's dict), its hyperparameters fixed, on standardized rows ``Z``
+    (GPRSurrogate.from_dict refits without optimizing)."""
+    return GPRSurrogate.from_dict({**state, "inputs": None, "X_train": Z.tolist(), "y_train": np.asarray(y).tolist()})
 
 
 def _mfk_class():
@@ -164,7 +180,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         remember_inputs(self, X)
         X_high = np.asarray(X, float)
         self.n_features_in_ = X_high.shape[1]
-        rows = training_subset(len(X_high), self.n_high, self.random_state)
+        self.training_rows_ = rows = training_subset(len(X_high), self.n_high, self.random_state)
         X_low = input_matrix(self, X_low)  # the DoE's columns taken by name, as the parts'
         self.standardizer_ = DoEStandardizer().fit(X_low)  # the DoE's statistics, as the gate's
         self.data_ = {
@@ -179,6 +195,19 @@ class CoKriging(RegressorMixin, BaseEstimator):
             np.append(self.mfk_.optimal_theta[level], self.mfk_.optimal_noise_all[level]).tolist() for level in range(2)
         ]
         return self
+
+    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+        """Per high-fidelity row (in ``training_rows_`` order): co-kriging, its hyperparameters fixed, refitted
+        without that row's fold (the simulations kept)."""
+        check_is_fitted(self, "mfk_")
+        _, FixedMFK = _mfk_class()
+        X, y = self.data_["X_high"], self.data_["y_high"]
+        out = np.empty(len(y))
+        for train, test in folds(len(y), n_folds, seed):
+            model = FixedMFK(self.hyperparameters_, **self._options())
+            self._train(model, self.data_["X_low"], self.data_["y_low"], X[train], y[train])
+            out[test] = _batched(model.predict_values, self.standardizer_.transform(X[test]))
+        return out
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "mfk_")
@@ -214,7 +243,8 @@ PEERS = ("gp_discrepancy", "cokriging")
 @dataclass
 class PeerFit:
     model: object
-    production: pd.DataFrame  # pred_<kind> (final model) and pred_<kind>_oof (NaN on its training rows)
+    # pred_<kind>: the final model; pred_<kind>_oof: the same, but out-of-fold on the parts it trained on
+    production: pd.DataFrame
     fit_seconds: float
     n_train: int
 
@@ -228,9 +258,11 @@ def fit_peer(
     target: str,
     settings: dict,
     seed: int,
+    n_folds: int = 5,
 ) -> PeerFit:
     """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
-    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere).
+    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on the parts it trained on, out of
+    ``n_folds`` folds (the peer refitted without each fold, its hyperparameters fixed), as the hybrid is scored.
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
     residuals rule's table).
@@ -238,32 +270,35 @@ def fit_peer(
     inputs = list(inputs)
     inside = np.flatnonzero(in_support(residuals))
     X_in = production.iloc[inside][inputs]
+    surrogate = residuals["pred_surrogate"].to_numpy(float)
     start = time.perf_counter()
     if kind == "gp_discrepancy":
         model = GPDiscrepancy(n_hyper=settings["gp_n_hyper"], n_fit=settings["gp_n_fit"], random_state=seed)
         model.fit(X_in, residuals["residual_approx"].to_numpy(float)[inside])
-        trained = np.union1d(training_subset(len(inside), model.n_hyper, seed), model.fit_rows_)
     elif kind == "cokriging":
         model = CoKriging(n_high=settings["cokriging_n_high"], random_state=seed)
         model.fit(X_in, residuals["measured"].to_numpy(float)[inside], X_low=doe[inputs], y_low=doe[target])
-        trained = training_subset(len(inside), model.n_high, seed)
     else:
         raise ValueError(f"unknown peer {kind!r}; one of {', '.join(PEERS)}")
     seconds = time.perf_counter() - start
     # a peer predicts row by row against all its training points: on a large log, a seeded sample of rows
     predicted = training_subset(len(production), settings.get("max_predicted", len(production)), seed + 2)
     final = np.full(len(production), np.nan)
-    final[predicted] = peer_prediction(
-        kind, model, production.iloc[predicted][inputs], residuals["pred_surrogate"].to_numpy(float)[predicted]
-    )
+    final[predicted] = peer_prediction(kind, model, production.iloc[predicted][inputs], surrogate[predicted])
+    trained = inside[model.training_rows_]
     honest = final.copy()
-    honest[inside[trained]] = np.nan
-    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds, int(len(trained)))
+    honest[trained] = _as_target(kind, model.out_of_fold(n_folds, seed), surrogate[trained])
+    return PeerFit(model, pd.DataFrame({f"pred_{kind}": final, f"pred_{kind}_oof": honest}), seconds, len(trained))
+
+
+def _as_target(kind: str, value: np.ndarray, surrogate: np.ndarray) -> np.ndarray:
+    """The GP discrepancy predicts a correction of the surrogate, co-kriging the target itself."""
+    return surrogate + value if kind == "gp_discrepancy" else value
 
 
 def peer_prediction(kind: str, model, X: pd.DataFrame, surrogate: np.ndarray) -> np.ndarray:
-    """The peer's prediction of the target: the GP discrepancy corrects the surrogate, co-kriging predicts it."""
-    return surrogate + model.predict(X) if kind == "gp_discrepancy" else model.predict(X)
+    """The peer's prediction of the target at ``X``, given the surrogate there."""
+    return _as_target(kind, model.predict(X), surrogate)
 
 
 def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
@@ -315,8 +350,9 @@ def comparison_table(
 ) -> pd.DataFrame:
     """peer_comparison.csv: every model on the same held-out production rows, in and out of the support.
 
-    ``predictions`` are honest (out-of-fold, or from models never trained on the row; a peer NaN on the parts it
-    trained on); the rows scored are the test blocks where every model has a value, so all models share them.
+    ``predictions`` are honest (out-of-fold on a model's training parts, a peer's included, or from models never
+    trained on the row); the rows scored are the test blocks where every model has a value, so all models share
+    them.
     ``fits``: per peer, its n_train (the in-support parts it trained on).
     """
     from .extension import gain_table
@@ -339,7 +375,7 @@ def comparison_table(
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows; the recommended model and the stack's weights were "
         "chosen on the even blocks), the same rows for every model: in support out-of-fold for the hybrid and the "
-        "extension, never among a peer's training parts; out of support from models never trained there; matched "
+        "extension, and for a peer on the parts it trained on; out of support from models never trained there; matched "
         "cases never used for fitting (the stack and the recommended model are not scored on them)"
         + ("; truth = the demo's noise-free plant" if truth is not None else "")
     )

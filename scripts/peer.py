@@ -19,6 +19,7 @@ def main(snakemake):
         p.target,
         p.settings,
         p.seed,
+        p.folds,
     )
     logging.info("%s: fitted on %d in-support parts in %.1f s", kind, fit.n_train, fit.fit_seconds)
     files.write_json(fit.model.to_dict(), snakemake.output.model)

@@ -3,8 +3,9 @@
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.gaussian_process import GaussianProcessRegressor
 
-from hybridtwin import intervals, peers
+from hybridtwin import crossval, intervals, peers
 
 COLUMNS = ["a", "b", "c"]
 
@@ -73,7 +74,7 @@ def test_a_peer_is_never_scored_on_the_parts_it_trained_on():
     assert np.isnan(lower[trained_on]).all() and np.isfinite(lower[~trained_on]).all()
 
 
-def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_never_its_training_parts(case):
+def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training_parts_out_of_fold(case):
     parts = case["parts"]
     surrogate = simulator(parts.to_numpy())
     residuals = pd.DataFrame(
@@ -91,8 +92,11 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_never_its_tr
     assert predicted.sum() == 1000
     again = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
     assert np.array_equal(np.isfinite(again.production["pred_gp_discrepancy"]), predicted)  # seeded
-    honest = np.isfinite(fit.production["pred_gp_discrepancy_oof"].to_numpy())
-    assert (honest <= predicted).all() and honest.sum() < predicted.sum()  # nor on its training parts
+    honest = fit.production["pred_gp_discrepancy_oof"].to_numpy()
+    trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
+    assert np.array_equal(np.flatnonzero(np.isfinite(honest)), np.union1d(np.flatnonzero(predicted), trained))
+    elsewhere = predicted & ~np.isin(np.arange(len(parts)), trained)
+    assert np.array_equal(honest[elsewhere], fit.production["pred_gp_discrepancy"].to_numpy()[elsewhere])
     # without a limit every row is predicted, and the sample's values are the same
     full = peers.fit_peer(
         "gp_discrepancy", doe, parts, residuals, COLUMNS, "y", {**settings, "max_predicted": 10**6}, 0
@@ -101,6 +105,49 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_never_its_tr
     np.testing.assert_allclose(
         full.production["pred_gp_discrepancy"].to_numpy()[predicted], fit.production["pred_gp_discrepancy"][predicted]
     )
+
+
+def _peer_frames(case):
+    parts = case["parts"]
+    surrogate = simulator(parts.to_numpy())
+    residuals = pd.DataFrame(
+        {
+            "measured": case["y_parts"],
+            "pred_surrogate": surrogate,
+            "residual_approx": case["y_parts"] - surrogate,
+            "in_support": np.arange(len(parts)) % 3 != 0,
+        }
+    )
+    return case["doe"].assign(y=case["y_doe"]), residuals
+
+
+@pytest.mark.parametrize("kind", peers.PEERS)
+def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(case, kind):
+    doe, residuals = _peer_frames(case)
+    settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150}
+    fit = peers.fit_peer(kind, doe, case["parts"], residuals, COLUMNS, "y", settings, seed=4, n_folds=3)
+    trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
+    honest = fit.production[f"pred_{kind}_oof"].to_numpy()
+    final = fit.production[f"pred_{kind}"].to_numpy()
+    assert len(trained) == 150 and fit.n_train == 150
+    untrained = np.setdiff1d(np.arange(len(final)), trained)
+    assert np.array_equal(honest[untrained], final[untrained])
+    # each fold by hand: the final model's hyperparameters on the other folds' rows only
+    model = fit.model
+    for train, test in crossval.folds(150, 3, 4):
+        rows = trained[test]
+        if kind == "gp_discrepancy":
+            gp = model.gp_.gpr_
+            by_hand = GaussianProcessRegressor(gp.kernel_, normalize_y=True, optimizer=None)
+            by_hand.fit(gp.X_train_[train], residuals["residual_approx"].to_numpy()[trained[train]])
+            expected = simulator(case["parts"].to_numpy()[rows]) + by_hand.predict(gp.X_train_[test])
+        else:
+            state = model.to_dict()
+            high = {key: model.data_[key][train] for key in ("X_high", "y_high")}
+            state["data"] = {**state["data"], **high}
+            expected = peers.CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
+        np.testing.assert_allclose(honest[rows], expected, rtol=1e-9, atol=1e-9)
+        assert not np.allclose(honest[rows], final[rows])  # the final model, which saw them, differs
 
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):

@@ -425,7 +425,7 @@ COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "
 
 def truth_scores(truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray) -> dict[str, float]:
     """Truth-RMSE of each compared model out of and in the support, all on the same test rows: those
-    where every one has an honest prediction (a peer has none on the parts it was trained on)."""
+    where every one has an honest prediction (every model has one on the in-support parts)."""
     common = test & np.all([np.isfinite(honest[model]) for model in COMPARED_MODELS], axis=0)
     scored = {}
     for model in COMPARED_MODELS:
@@ -446,7 +446,7 @@ def compare_models(
     """The paper's hybrid, the extension, the two peers, their stack and the recommended model on one plant.
 
     As the workflow does it: every model fitted on the DoE and the in-support parts; honest predictions
-    (out-of-fold in support, a peer never on its training parts); the recommended model and the stack
+    (out-of-fold on the parts a model trained on, a peer's too); the recommended model and the stack
     chosen on the even blocks of consecutive parts; every score on the odd blocks. Returns, per model,
     the truth-RMSE out of and in the support on those rows.
     """
@@ -508,7 +508,7 @@ def compare_models(
     frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
     peer_settings = peer_settings or {"gp_n_hyper": 500, "gp_n_fit": 2000, "cokriging_n_high": 500}
     for kind in peers.PEERS:
-        fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed)
+        fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed, folds)
         frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
     calibrated = intervals.calibrate(

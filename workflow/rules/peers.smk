@@ -23,6 +23,7 @@ rule peer:
         inputs=INPUTS,
         target=TARGET,
         seed=SEED,
+        folds=config["cv"]["folds"],
         settings=config["peers"],
     script:
         "../../scripts/peer.py"
