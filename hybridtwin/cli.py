@@ -89,7 +89,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def predict(args) -> None:
-    predictor = Predictor.load(args.models)
+    predictor = Predictor.load(args.models, with_peers=not args.without_peers)
     fmt = CsvFormat.from_config(
         {"sep": args.sep or predictor.csv.sep, "decimal": args.decimal or predictor.csv.decimal}
     )

@@ -117,10 +117,14 @@ class Predictor:
     peers: dict  # kind -> fitted peer (GP discrepancy, co-kriging)
 
     @classmethod
-    def load(cls, models: str | Path) -> "Predictor":
-        """Load the models a workflow run wrote to ``models`` (its results/models folder)."""
+    def load(cls, models: str | Path, with_peers: bool = True) -> "Predictor":
+        """Load the models a workflow run wrote to ``models`` (its results/models folder).
+
+        ``with_peers=False`` leaves the peers' files unread (rebuilding SMT's co-kriging takes a second); such a
+        predictor answers only ``predict(..., with_peers=False)``.
+        """
         try:
-            return cls._load(Path(models))
+            return cls._load(Path(models), with_peers)
         except (OSError, ValueError, KeyError) as error:
             if isinstance(error, data.InputError):
                 raise
@@ -130,7 +134,7 @@ class Predictor:
             ) from None
 
     @classmethod
-    def _load(cls, folder: Path) -> "Predictor":
+    def _load(cls, folder: Path, with_peers: bool) -> "Predictor":
         if not (folder / MANIFEST).exists():
             raise data.InputError(
                 f"models folder {str(folder)!r} has no {MANIFEST}: point --models at the "
@@ -162,7 +166,9 @@ class Predictor:
             extension_out_of_support=bool(extension["extended_hybrid_out_of_support"]),
             intervals=intervals.RegionIntervals.from_dict(spec["intervals"]),
             level=float(spec["level"]),
-            peers={kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS},
+            peers={
+                kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS if with_peers
+            },
         )
 
     def _inputs(self, frame: pd.DataFrame) -> pd.DataFrame:
@@ -185,6 +191,8 @@ class Predictor:
         hybrid, ``extended_hybrid`` is the paper's hybrid (which needs no such column). ``n_jobs``: threads
         for the peers (default: every core this process may use; the answers do not depend on it).
         """
+        if with_peers and not self.peers:
+            raise ValueError("this predictor was loaded without its peers: Predictor.load(models, with_peers=True)")
         X = self._inputs(frame)
         surrogate, std = self.surrogate.predict(X, return_std=True)
         inside = self.gate.predict(X) if in_support is None else np.asarray(in_support, bool)
@@ -212,7 +220,7 @@ class Predictor:
         out.update(
             peers.predictions_at(self.peers, X, surrogate, n_jobs or peers.available_cores())
             if with_peers
-            else {kind: np.full(len(X), np.nan) for kind in self.peers}
+            else {kind: np.full(len(X), np.nan) for kind in peers.PEERS}
         )
         return out
 

@@ -575,3 +575,9 @@ def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir
     full = predictor.predict(settings)
     same = ~full["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"])
     assert (fast.loc[same, "pred_recommended"] == full.loc[same, "pred_recommended"]).all()
+    # loaded without the peers' files (the CLI's --without-peers): the same answers, and no silent peer columns
+    light = Predictor.load(run_dir / "results/models", with_peers=False)
+    assert not light.peers
+    pd.testing.assert_frame_equal(light.predict(settings, with_peers=False), fast)
+    with pytest.raises(ValueError, match="without its peers"):
+        light.predict(settings)
