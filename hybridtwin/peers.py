@@ -81,9 +81,11 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         self.training_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
         # the hyperparameters from a seeded part of the same rows: every row the GP learnt from is a training row,
         # and so has an out-of-fold prediction
-        hyper_rows = self.training_rows_[training_subset(len(self.training_rows_), self.n_hyper, self.random_state)]
+        self.hyper_rows_ = self.training_rows_[
+            training_subset(len(self.training_rows_), self.n_hyper, self.random_state)
+        ]
         hyper = GPRSurrogate(n_restarts=self.n_restarts, random_state=self.random_state)
-        hyper.fit(matrix[hyper_rows], y[hyper_rows])
+        hyper.fit(matrix[self.hyper_rows_], y[self.hyper_rows_])
         self.gp_ = _with_rows(
             hyper.to_dict(), hyper.standardizer_.transform(matrix[self.training_rows_]), y[self.training_rows_]
         )
@@ -111,6 +113,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
             "inputs": input_names(self),
             "gp": self.gp_.to_dict(),
             "n_fit": len(self.training_rows_),
+            "training_rows": self.training_rows_.tolist(),
         }
 
     @classmethod
@@ -118,7 +121,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         model = cls(**data["params"])
         model.gp_ = GPRSurrogate.from_dict(data["gp"])
         model.n_features_in_ = model.gp_.n_features_in_
-        model.training_rows_ = np.arange(int(data["n_fit"]))
+        model.training_rows_ = np.asarray(data["training_rows"], int)
         restore_inputs(model, data)
         return model
 
@@ -221,6 +224,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
             "inputs": input_names(self),
             "standardizer": self.standardizer_.to_dict(),
             "hyperparameters": self.hyperparameters_,
+            "training_rows": self.training_rows_.tolist(),
             "data": {key: value.tolist() for key, value in self.data_.items()},
         }
 
@@ -231,6 +235,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         model.data_ = {key: np.asarray(value, float) for key, value in data["data"].items()}
         model.n_features_in_ = model.data_["X_high"].shape[1]
         model.hyperparameters_ = data["hyperparameters"]
+        model.training_rows_ = np.asarray(data["training_rows"], int)
         restore_inputs(model, data)
         _, FixedMFK = _mfk_class()
         model.mfk_ = model._train(FixedMFK(model.hyperparameters_, **model._options()), **model.data_)

@@ -57,13 +57,13 @@ def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
     assert len(model.data_["X_high"]) == 200
 
 
-def test_a_peer_is_never_scored_on_the_parts_it_trained_on():
+def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():
     rng = np.random.default_rng(3)
     n = 4000
     measured = rng.normal(0, 1, n)
     good = measured + rng.normal(0, 0.1, n)
     trained_on = rng.random(n) < 0.3
-    # on its training rows a peer would look perfect; the workflow marks them NaN and they must not count
+    # where a model has no honest value (NaN; a peer beyond its sample of a long log) the row must not count
     peer = np.where(trained_on, np.nan, measured + rng.normal(0, 2.0, n))
     region = np.full(n, "in_support", dtype=object)
     calibration = intervals.calibration_rows(n, 10)
@@ -74,7 +74,7 @@ def test_a_peer_is_never_scored_on_the_parts_it_trained_on():
     assert np.isnan(lower[trained_on]).all() and np.isfinite(lower[~trained_on]).all()
 
 
-def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training_parts_out_of_fold(case):
+def _peer_frames(case, in_support):
     parts = case["parts"]
     surrogate = simulator(parts.to_numpy())
     residuals = pd.DataFrame(
@@ -82,10 +82,15 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
             "measured": case["y_parts"],
             "pred_surrogate": surrogate,
             "residual_approx": case["y_parts"] - surrogate,
-            "in_support": np.arange(len(parts)) % 2 == 0,
+            "in_support": in_support,
         }
     )
-    doe = case["doe"].assign(y=case["y_doe"])
+    return case["doe"].assign(y=case["y_doe"]), residuals
+
+
+def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training_parts_out_of_fold(case):
+    parts = case["parts"]
+    doe, residuals = _peer_frames(case, np.arange(len(parts)) % 2 == 0)
     settings = {"gp_n_hyper": 100, "gp_n_fit": 200, "max_predicted": 1000}
     fit = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
     predicted = np.isfinite(fit.production["pred_gp_discrepancy"].to_numpy())
@@ -107,23 +112,9 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     )
 
 
-def _peer_frames(case):
-    parts = case["parts"]
-    surrogate = simulator(parts.to_numpy())
-    residuals = pd.DataFrame(
-        {
-            "measured": case["y_parts"],
-            "pred_surrogate": surrogate,
-            "residual_approx": case["y_parts"] - surrogate,
-            "in_support": np.arange(len(parts)) % 3 != 0,
-        }
-    )
-    return case["doe"].assign(y=case["y_doe"]), residuals
-
-
 @pytest.mark.parametrize("kind", peers.PEERS)
 def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(case, kind):
-    doe, residuals = _peer_frames(case)
+    doe, residuals = _peer_frames(case, np.arange(len(case["parts"])) % 3 != 0)
     settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150}
     fit = peers.fit_peer(kind, doe, case["parts"], residuals, COLUMNS, "y", settings, seed=4, n_folds=3)
     trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
@@ -148,6 +139,11 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
             expected = peers.CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
         np.testing.assert_allclose(honest[rows], expected, rtol=1e-9, atol=1e-9)
         assert not np.allclose(honest[rows], final[rows])  # the final model, which saw them, differs
+    if kind == "gp_discrepancy":  # the rows that chose the hyperparameters are training rows, scored out-of-fold
+        assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
+    again = type(model).from_dict(model.to_dict())
+    assert np.array_equal(again.training_rows_, model.training_rows_)
+    np.testing.assert_array_equal(again.out_of_fold(3, 4), model.out_of_fold(3, 4))
 
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):

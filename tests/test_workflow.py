@@ -563,7 +563,7 @@ def test_appending_production_reruns_neither_the_surrogate_nor_the_doe_check(run
     assert "output: results/data/doe.csv" not in dry and "output: results/data/production.csv" in dry
 
 
-def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir):
+def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir, tmp_path):
     from hybridtwin import Predictor
 
     predictor = Predictor.load(run_dir / "results/models")
@@ -575,9 +575,18 @@ def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir
     full = predictor.predict(settings)
     same = ~full["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"])
     assert (fast.loc[same, "pred_recommended"] == full.loc[same, "pred_recommended"]).all()
-    # loaded without the peers' files (the CLI's --without-peers): the same answers, and no silent peer columns
-    light = Predictor.load(run_dir / "results/models", with_peers=False)
+    # loaded without the peers (the CLI's --without-peers): their files are not even read; the same answers
+    models = tmp_path / "models"
+    shutil.copytree(run_dir / "results/models", models)
+    for peer in models.glob("peer_*.json"):
+        peer.write_text("not JSON")
+    light = Predictor.load(models, with_peers=False)
     assert not light.peers
     pd.testing.assert_frame_equal(light.predict(settings, with_peers=False), fast)
     with pytest.raises(ValueError, match="without its peers"):
         light.predict(settings)
+    new, out = tmp_path / "new.csv", tmp_path / "out.csv"
+    settings.to_csv(new, index=False)
+    command = ["hybridtwin", "predict", str(new), "--models", str(models), "-o", str(out)]
+    assert subprocess.run([*command, "--without-peers"], capture_output=True).returncode == 0
+    assert subprocess.run(command, capture_output=True).returncode == 1  # the broken peer files are read

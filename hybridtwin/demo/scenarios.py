@@ -425,7 +425,8 @@ COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "
 
 def truth_scores(truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray) -> dict[str, float]:
     """Truth-RMSE of each compared model out of and in the support, all on the same test rows: those
-    where every one has an honest prediction (every model has one on the in-support parts)."""
+    where every one has an honest prediction (on a log shorter than a peer's sample limit, every model has
+    one on every in-support part)."""
     common = test & np.all([np.isfinite(honest[model]) for model in COMPARED_MODELS], axis=0)
     scored = {}
     for model in COMPARED_MODELS:
