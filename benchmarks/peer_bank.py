@@ -17,12 +17,13 @@ from pathlib import Path
 
 import pandas as pd
 
+from hybridtwin import config
 from hybridtwin.demo import families, scenarios
 
 PEERS = ("gp_discrepancy", "cokriging")
 
 
-def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int) -> pd.DataFrame:
+def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None):
     rows = []
     plants = [
         ("families", family, seed * 1000 + i * 100 + j)
@@ -33,7 +34,7 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int) -> pd.Data
     for generator, kind, draw in plants:
         start = time.perf_counter()
         case = families.draw_plant(kind, draw) if generator == "families" else scenarios.demo_case(kind, draw)
-        scored = scenarios.compare_models(case, draw, jobs)
+        scored = scenarios.compare_models(case, draw, jobs, peer_settings=peer_settings)
         best_peer_out = min(scored[f"{p}_out"] for p in PEERS)
         best_peer_in = min(scored[f"{p}_in"] for p in PEERS)
         row = {
@@ -86,9 +87,14 @@ def main() -> None:
     parser.add_argument("--demo-kinds", nargs="*", default=list(scenarios.KINDS))
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
+    defaults = config.schema()["properties"]["peers"]["properties"]
+    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high"):
+        flag = f"--{key.replace('_', '-')}"
+        parser.add_argument(flag, type=int, default=defaults[key]["default"], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs)
+    peer_settings = {key: getattr(args, key) for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high")}
+    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
     text = (
         "table: out-of-support truth-RMSE on held-out parts (the odd blocks, where every model has an honest "
         "prediction: the same parts for all), median over plants (mm)\n\n" + summary(table)
