@@ -104,3 +104,132 @@ def test_n_points_out_of_range_is_a_config_error(n_points):
     rule = {0: "must be at least 1", 201: "must be at most 200", 2.5: "must be a whole number"}[n_points]
     with pytest.raises(ConfigError, match=f"^config error: enrichment.n_points = {n_points}, {rule}$"):
         check(config)
+
+
+def test_what_a_point_serves_by_hand():
+    production = pd.DataFrame(
+        {
+            "a": np.arange(10.0),
+            "timestamp": [f"2026-01-01 {h:02d}:{m:02d}:00" for h, m in zip(range(10), range(0, 50, 5))],
+            "coil_id": ["C1", "C1", "C2", "C1", "C3", "C1", "C2", "C2", "C1", "C1"],
+            "shift": ["A"] * 10,
+            "serial": [f"S{i}" for i in range(10)],  # a level per part: no main level to name
+            "strokes": np.arange(10) * 100,  # a number, not an id
+        }
+    )
+    rows = np.array([2, 3, 5, 9])
+    served = enrichment._served(production, rows, ["a"])
+    assert served == (
+        "rows 3-10; timestamp 2026-01-01 02:10 to 2026-01-01 09:45; coil_id C1 (75%) and 1 more; shift A (100%)"
+    )
+    assert enrichment._served(production, np.array([], int), ["a"]).startswith("no part on its own")
+
+
+def test_the_proposals_table_by_hand():
+    proposal = enrichment.Proposal(
+        points=np.array([[1.0, 2.0], [3.0, 4.0]]),
+        brought_in=[np.array([0, 1, 2]), np.array([], int)],
+        share_after=[0.5, 0.6],
+        share_before=0.4,
+        surrogate_std=np.array([0.3, 0.2]),
+        share_after_fixed_threshold=[0.55, 0.65],
+        n_counted=4,
+        n_production=10,
+    )
+    production = pd.DataFrame({"x": [0.0] * 10, "y": [0.0] * 10, "coil": ["K"] * 10})
+    table = enrichment.proposals_table(proposal, production, ["x", "y"])
+    assert table.columns.tolist() == [
+        "proposal", "x", "y", "parts_brought_in", "share_in_support_after", "share_within_todays_threshold",
+        "surrogate_std_here", "serves", "counted_on",
+    ]  # fmt: skip
+    assert table["proposal"].tolist() == [1, 2] and table[["x", "y"]].to_numpy().tolist() == [[1, 2], [3, 4]]
+    assert table["parts_brought_in"].tolist() == [8, 0]  # 3 of 4 counted parts, scaled to the 10 of the log
+    assert table["share_in_support_after"].tolist() == [0.5, 0.6]
+    assert table["share_within_todays_threshold"].tolist() == [0.55, 0.65]
+    assert table["surrogate_std_here"].tolist() == [0.3, 0.2]
+    assert table["serves"].tolist() == [
+        "rows 1-3; coil K (100%)",
+        "no part on its own (prepares a neighbourhood for the next points)",
+    ]
+    assert table["counted_on"].iloc[0] == (
+        "a seeded sample of 4 of the 10 production parts (enrichment.max_rows); "
+        "parts_brought_in scaled to the whole log"
+    )
+    assert table.attrs["share_before"] == 0.4
+    whole = enrichment.proposals_table(
+        enrichment.Proposal(
+            proposal.points, proposal.brought_in, [0.5, 0.6], 0.4, proposal.surrogate_std, [0.5, 0.6], 10, 10
+        ),
+        production,
+        ["x", "y"],
+    )
+    assert whole["parts_brought_in"].tolist() == [3, 0] and whole["counted_on"].iloc[0] == "all 10 production parts"
+
+
+def test_weights_limits_and_gains_by_hand():
+    np.testing.assert_allclose(enrichment.recency_weights(5, 2.0), [1.0, 1.5, 2.0, 2.5, 3.0])
+    assert enrichment.recency_weights(1, 2.0).tolist() == [1.0]
+    low, high = enrichment.physical_limits(np.array([[0.0, 5.0], [2.0, 6.0]]), np.array([[1.0, 4.0], [3.0, 5.0]]), 0.1)
+    np.testing.assert_allclose(low, [-0.3, 3.8])
+    np.testing.assert_allclose(high, [3.3, 6.2])
+    # two parts with their 3 nearest DoE distances, two candidates; threshold 1
+    nearest = np.array([[0.5, 1.0, 2.1], [1.0, 1.5, 2.0]])  # means 1.2 and 1.5: both outside
+    candidate_distance = np.array([[0.2, 3.0], [0.8, 0.1]])
+    weights = np.array([1.0, 3.0])
+    count, shortened = enrichment._gain(nearest, candidate_distance, 1.0, weights)
+    # with candidate 1: (0.5 + 1.0 + 0.2) / 3 = 0.567 in, (1.0 + 1.5 + 0.8) / 3 = 1.1 still out;
+    # candidate 2: part 1 keeps 1.2 (3.0 is farther than its 3rd), part 2 (1.0 + 1.5 + 0.1) / 3 = 0.867 in
+    np.testing.assert_allclose(count, [1.0, 3.0])
+    np.testing.assert_allclose(shortened, [(1.2 - 1.7 / 3) + 3 * (1.5 - 1.1), 3 * (1.5 - 2.6 / 3)])
+
+
+def test_gains_summed_over_chunks_of_parts_are_those_of_one_chunk(monkeypatch):
+    rng = np.random.default_rng(4)
+    reference, parts, candidates = rng.random((20, 2)), rng.random((7, 2)) + 0.5, rng.random((4, 2)) + 0.5
+    nearest = enrichment._nearest(reference, parts, 3)
+    weights = rng.random(7) + 1
+    whole = enrichment._gain(nearest, enrichment.cdist(parts, candidates), 0.3, weights)
+    monkeypatch.setattr(enrichment, "GAIN_ROWS", 3)  # chunks of 3, 3 and 1 parts
+    chunked = enrichment._chunked_gain(parts, nearest, candidates, 0.3, weights)
+    np.testing.assert_allclose(chunked[0], whole[0])
+    np.testing.assert_allclose(chunked[1], whole[1])
+    assert whole[0].sum() > 0 and whole[1].sum() > 0
+
+
+def test_each_point_is_counted_with_the_rebuilt_gate_and_with_todays_threshold():
+    doe, production = plant()
+    k, percentile = 3, 90  # not the gate's defaults
+    settings = enrichment.EnrichmentSettings(n_points=3, n_candidates=40, seed=2)
+    std = lambda points: points[:, 0] + 1.0  # noqa: E731 (the surrogate's std, known here)
+    proposal = enrichment.propose(doe, production, k, percentile, settings, surrogate_std=std)
+    today = KNNSupportGate(k=k, percentile=percentile).fit(doe)
+    before = today.predict(production)
+    assert proposal.share_before == before.mean() and len(proposal.points) == 3
+    for j in range(3):
+        rebuilt = KNNSupportGate(k=k, percentile=percentile).fit(np.vstack([doe, proposal.points[: j + 1]]))
+        now = rebuilt.predict(production)
+        assert proposal.share_after[j] == pytest.approx(now.mean())
+        held = rebuilt.distance(production) <= today.threshold_
+        assert proposal.share_after_fixed_threshold[j] == pytest.approx(held.mean())
+        np.testing.assert_array_equal(proposal.brought_in[j], np.flatnonzero(now & ~before))
+        before = now
+    np.testing.assert_allclose(proposal.surrogate_std, std(proposal.points))
+    assert len(np.unique(proposal.points, axis=0)) == 3  # a candidate is taken once
+
+
+def test_parts_brought_in_decide_and_the_surrogates_doubt_breaks_a_tie():
+    # two equal, equally recent clusters beyond the DoE: either point brings as many parts; the surrogate is
+    # less sure at one of them, and that one comes first
+    rng = np.random.default_rng(0)
+    doe = rng.random((40, 2))
+    production = np.vstack([rng.normal([2.0, 0.5], 0.02, (100, 2)), rng.normal([0.5, 2.0], 0.02, (100, 2))])
+    settings = enrichment.EnrichmentSettings(n_points=1, n_candidates=2, recency_weight=0.0, seed=0)
+    for unsure_at, where in ((0, [2.0, 0.5]), (1, [0.5, 2.0])):
+        std = lambda points, axis=unsure_at: points[:, axis]  # noqa: E731
+        first = enrichment.propose(doe, production, 5, 95, settings, surrogate_std=std).points[0]
+        np.testing.assert_allclose(first, where, atol=0.05)
+    # a bigger cluster wins over the surrogate's doubt
+    bigger = np.vstack([production, rng.normal([2.0, 0.5], 0.02, (50, 2))])
+    first = enrichment.propose(doe, bigger, 5, 95, settings, surrogate_std=lambda p: p[:, 1]).points[0]
+    np.testing.assert_allclose(first, [2.0, 0.5], atol=0.05)
+    assert enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=0)).points.shape == (0, 2)

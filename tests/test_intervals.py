@@ -187,6 +187,17 @@ def test_the_figure_shows_each_shown_rows_own_error_and_region(monkeypatch):
     everywhere = intervals.recommended_prediction(fitted, calibrated.honest, region, LEVEL)["pred_recommended"]
     np.testing.assert_allclose(shown["error"], measured[rows] - everywhere.to_numpy()[rows])
     assert shown["region"].tolist() == region.interval[rows].tolist()
+    # per region, the interval's median half-width (the shown rows and the sample of MAX_TEST_ROWS) and the
+    # recommended model's coverage from the table
+    drawn = np.union1d(rows, np.sort(np.random.default_rng(2).choice(len(measured), 500, replace=False)))
+    picked = intervals.recommended_prediction(fitted, calibrated.honest, region, LEVEL).iloc[drawn]
+    half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy()
+    for name in fitted.regions:
+        assert shown["half_width"][name] == pytest.approx(np.median(half[region.interval[drawn] == name]))
+    chosen = table[(table["model"] == "recommended") & (table["calibration"] == "by_region")]
+    assert (
+        shown["coverage"] == dict(zip(chosen["region"], chosen["coverage"])) and len(shown["coverage"]) == 5
+    )  # 4 regions and all
 
 
 def test_the_recommended_model_is_the_better_one_in_each_region():
@@ -247,3 +258,161 @@ def test_the_choice_compares_models_on_the_same_parts():
         "gp_discrepancy": np.where(np.arange(n) < n // 2, np.nan, truth + rng.normal(0, 1.0, n)),
     }
     assert intervals._ranking(measured, candidates, np.arange(n)) == ["hybrid", "gp_discrepancy"]
+
+
+def _half_width(errors, level: float) -> float:
+    """Split-conformal half-width by hand: the k-th largest calibration error, k = (1 - level)(n + 1) rounded
+    down as crepes rounds it (in floating point, so that k = 89, not 90, for n = 449 at 80%)."""
+    errors = np.sort(np.round(np.asarray(errors, float), 6))[::-1]
+    return float(errors[int((1 - level) * (len(errors) + 1)) - 1])
+
+
+def _predictions_table(n=4000, seed=2):
+    """A production predictions table in time order: a third in the gate, 5% of those beyond the DoE's range in
+    input t (10 to 12, DoE 0 to 10); each model's honest error of its own size, growing away from the DoE."""
+    rng = np.random.default_rng(seed)
+    distance = rng.uniform(0, 3, n)
+    inside = distance < 1
+    t = np.where(inside & (rng.random(n) < 0.05), rng.uniform(10, 12, n), rng.uniform(0, 10, n))
+    truth = rng.normal(0, 5, n)
+    measured = truth + rng.normal(0, 1, n)
+    grow = 1 + distance
+    table = pd.DataFrame(
+        {
+            "in_support": inside,
+            "knn_distance": distance,
+            "measured": measured,
+            "pred_surrogate": truth + rng.normal(0, 4, n),
+            "pred_hybrid_oof": truth + rng.normal(0, 1, n) * grow,
+            "pred_hybrid_unfiltered_oof": truth,
+            "pred_extended_oof": truth + rng.normal(0, 2, n),
+            "pred_extended_hybrid_oof": truth + rng.normal(0, 0.5, n) * grow,
+        }
+    )
+    return table, pd.DataFrame({"t": t}), truth
+
+
+def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
+    table, inputs, truth = _predictions_table()
+    n, level = len(table), 0.8
+    calibrated = intervals.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 3, 8, 0, truth=truth)
+    inside = table["in_support"].to_numpy()
+    beyond = inputs["t"].to_numpy() > 10
+    distance, measured = table["knn_distance"].to_numpy(), table["measured"].to_numpy()
+    calibration = (np.arange(n) // (n // 8)) % 2 == 0
+    assert np.array_equal(calibrated.calibration, calibration)
+    # bins: equal-count over the calibration rows out of the support or beyond the DoE's range
+    outside = calibration & ~(inside & ~beyond)
+    edges = np.quantile(distance[outside], [1 / 3, 2 / 3])
+    region = np.where(
+        inside & ~beyond, "in_support", [f"out_of_support_{b}" for b in np.searchsorted(edges, distance, "right") + 1]
+    )
+    assert calibrated.region.interval.tolist() == region.tolist()
+    assert calibrated.region.choice.tolist() == np.where(inside, "in_support", region).tolist()
+    # the paper's gated hybrid: the residual model in the gate, the surrogate outside it
+    honest = calibrated.honest
+    gated = np.where(inside, table["pred_hybrid_oof"], table["pred_surrogate"])
+    assert np.array_equal(honest["hybrid_gated"], gated)
+    for model in ("surrogate", "hybrid", "hybrid_unfiltered", "extended", "extended_hybrid"):
+        column = "pred_surrogate" if model == "surrogate" else f"pred_{model}_oof"
+        assert np.array_equal(honest[model], table[column].to_numpy()), model
+    assert "gp_discrepancy" not in honest and "cokriging" not in honest  # a run without peers
+    # every table row by hand for two models: the interval from the region's calibration errors, scored on its test rows
+    rows = calibrated.table.set_index(["region", "model", "calibration"])
+    assert set(calibrated.table["region"]) == {
+        "in_support",
+        "out_of_support_1",
+        "out_of_support_2",
+        "out_of_support_3",
+        "all",
+    }
+    for name in ("in_support", "out_of_support_1", "out_of_support_3"):
+        for model in ("hybrid", "surrogate"):
+            prediction = honest[model]
+            cal = calibration & (region == name)
+            test = ~calibration & (region == name)
+            half = _half_width(np.abs(measured[cal] - prediction[cal]), level)
+            row = rows.loc[(name, model, "by_region")]
+            assert row["n_test"] == test.sum() and row["n_calibration"] == cal.sum()
+            assert row["coverage"] == pytest.approx(np.mean(np.abs(measured[test] - prediction[test]) <= half))
+            assert row["coverage_truth"] == pytest.approx(np.mean(np.abs(truth[test] - prediction[test]) <= half))
+            assert row["mean_width"] == pytest.approx(2 * half, abs=1e-5)
+            assert row["rmse_test"] == pytest.approx(np.sqrt(np.mean((measured[test] - prediction[test]) ** 2)))
+            assert row["rmse_truth_test"] == pytest.approx(np.sqrt(np.mean((truth[test] - prediction[test]) ** 2)))
+            assert row["nominal_level"] == level
+            # one pooled calibration: every calibration row's error
+            pooled = _half_width(np.abs(measured[calibration] - prediction[calibration]), level)
+            assert rows.loc[(name, model, "pooled"), "mean_width"] == pytest.approx(2 * pooled, abs=1e-5)
+    assert rows.loc[("in_support", "hybrid", "by_region"), "region_label"] == "in support"
+    assert rows.loc[("out_of_support_1", "hybrid", "by_region"), "region_label"] == (
+        f"out of support, distance up to {edges[0]:.3g} (threshold 1)"
+    )
+    assert rows.loc[("out_of_support_3", "hybrid", "by_region"), "region_label"] == (
+        f"out of support, distance above {edges[1]:.3g}"
+    )
+    assert rows.loc[("all", "hybrid", "by_region"), "n_test"] == (~calibration).sum()
+    # the recommended model: its flag on its own row and on the 'recommended' rows only
+    flagged = calibrated.table[calibrated.table["recommended"]]
+    for name, model in calibrated.intervals.recommended.items():
+        assert set(flagged[flagged["region"] == name]["model"]) == {model, "recommended"}
+    assert "hybrid_unfiltered" not in calibrated.intervals.recommended.values()  # reported, never recommended
+    assert calibrated.intervals.max_distance == pytest.approx(distance[outside].max())
+    assert calibrated.table["evaluated_on"].str.endswith("against the demo's noise-free plant").all()
+    assert rows.loc[("out_of_support_2", "hybrid", "by_region"), "region_label"] == (
+        f"out of support, distance {edges[0]:.3g} to {edges[1]:.3g}"
+    )
+    # one distance bin, no truth
+    one_bin = intervals.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 1, 8, 0).table
+    assert set(one_bin["region"]) == {"in_support", "out_of_support_1", "all"}
+    labels = dict(zip(one_bin["region"], one_bin["region_label"]))
+    assert labels["out_of_support_1"] == "out of support (every distance)"
+    assert labels["all"] == "all production rows"
+    assert "coverage_truth" not in one_bin and "rmse_truth_test" not in one_bin
+    assert one_bin["evaluated_on"].iloc[0] == (
+        "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
+        "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
+        "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
+        "seen), models never trained on the row outside it (a peer's out-of-fold on the parts it trained on too); "
+        "coverage of the measured value"
+    )
+
+
+def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(6)
+    n = 3000
+    inside = np.arange(n) < 2700  # in support 1,350 calibration rows; out of it 300 rows, 150 of them calibrating
+    truth = rng.normal(0, 4, n)
+    measured = truth + rng.normal(0, 1, n)
+    honest = {
+        "hybrid": truth + rng.normal(0, 1.0, n),
+        "extended": truth + rng.normal(0, 1.5, n),
+        "surrogate": 0.5 * truth,
+        "hybrid_unfiltered": truth,  # no stack member: never recommended
+    }
+    region = intervals.regions(inside, np.zeros(n, bool), np.where(inside, 0.5, 2.0), [])
+    calibration = intervals.calibration_rows(n, 20)
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], None)
+    members = ["extended", "hybrid", "surrogate"]
+    rows = np.flatnonzero(calibration & inside)
+    X = np.column_stack([honest[m] for m in members])
+    weights, _ = nnls(X[rows], measured[rows])
+    assert list(fitted.weights) == ["in_support"]  # too few calibration rows outside for a stack
+    assert fitted.weights["in_support"] == pytest.approx(dict(zip(members, weights)))
+    # cross-fitted: each half of the rows blended with the weights fitted on the other half
+    first, second = rows[: len(rows) // 2], rows[len(rows) // 2 :]
+    stack = np.empty(n)
+    stack[second] = X[second] @ nnls(X[first], measured[first])[0]
+    stack[first] = X[first] @ nnls(X[second], measured[second])[0]
+    np.testing.assert_allclose(
+        fitted.calibration["stack"]["in_support"], np.round(np.abs(measured[rows] - stack[rows]), 6), atol=2e-6
+    )
+    assert "stack" not in fitted.ranking["out_of_support_1"] and "stack" in fitted.ranking["in_support"]
+    scores = {m: np.sqrt(np.mean((measured[rows] - p[rows]) ** 2)) for m, p in {**honest, "stack": stack}.items()}
+    expected = sorted((m for m in scores if m != "hybrid_unfiltered"), key=scores.get)
+    assert fitted.ranking["in_support"] == expected
+    # a new row is blended with the weights of all the region's rows; a region without a stack gives NaN
+    blended = fitted.with_stack(honest, region)["stack"]
+    np.testing.assert_allclose(blended[inside], X[inside] @ weights)
+    assert np.isnan(blended[~inside]).all()

@@ -163,3 +163,41 @@ def test_threads_share_the_rows_and_give_the_same_answers(case):
     assert [(c.start, c.stop) for c in peers._chunks(1250, 2)] == [(0, 700), (700, 1250)]
     assert [(c.start, c.stop) for c in peers._chunks(250, 5)] == [(0, 100), (100, 200), (200, 250)]
     assert peers._chunks(0, 2) == []
+
+
+def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
+    rng = np.random.default_rng(8)
+    n = 1000
+    inside = np.arange(n) % 3 == 0
+    test = (np.arange(n) // 100) % 2 == 1  # the odd blocks
+    truth = rng.normal(0, 5, n)
+    measured = truth + rng.normal(0, 1, n)
+    predictions = {model: truth + rng.normal(0, 1 + k, n) for k, model in enumerate(peers.COMPARED)}
+    predictions["gp_discrepancy"][::7] = np.nan  # a peer without an honest value on some parts
+    predictions["hybrid_unfiltered"] = truth  # not compared: no honest value out of the support
+    matched_measured = np.array([1.0, 2.0, 3.0])
+    matched = {"hybrid": np.array([1.5, 2.0, 3.0]), "cokriging": np.array([1.0, 2.0, 4.0])}
+    fits = {"gp_discrepancy": {"n_train": 700}, "cokriging": {"n_train": 300}}
+    table = peers.comparison_table(
+        measured, predictions, inside, test, matched_measured, matched, fits, truth=truth, noise=2.0
+    ).set_index("model")
+    assert table.index.tolist() == list(peers.COMPARED)
+    scored = test & np.isfinite(predictions["gp_discrepancy"])  # the rows every model has a value on
+    for model in peers.COMPARED:
+        error, miss = measured - predictions[model], truth - predictions[model]
+        row = table.loc[model]
+        assert row["rmse_in_support_cv"] == pytest.approx(np.sqrt(np.mean(error[scored & inside] ** 2)))
+        assert row["rmse_out_of_support"] == pytest.approx(np.sqrt(np.mean(error[scored & ~inside] ** 2)))
+        assert row["rmse_truth_in_support_cv"] == pytest.approx(np.sqrt(np.mean(miss[scored & inside] ** 2)))
+        assert row["rmse_truth_out_of_support"] == pytest.approx(np.sqrt(np.mean(miss[scored & ~inside] ** 2)))
+        assert row["out_of_support_over_noise"] == pytest.approx(row["rmse_out_of_support"] / 2.0)
+    assert table.loc["hybrid", "rmse_matched"] == pytest.approx(np.sqrt(0.25 / 3))
+    assert table.loc["cokriging", "rmse_matched"] == pytest.approx(np.sqrt(1 / 3))
+    assert np.isnan(table.loc["stack", "rmse_matched"])  # no matched prediction given: not scored there
+    assert (table["n_in_support"] == (scored & inside).sum()).all()
+    assert (table["n_out_of_support"] == (scored & ~inside).sum()).all() and (table["n_matched"] == 3).all()
+    assert table.loc["gp_discrepancy", "n_train"] == 700 and table.loc["cokriging", "n_train"] == 300
+    assert np.isnan(table.loc["hybrid", "n_train"])
+    assert table["evaluated_on"].str.endswith("truth = the demo's noise-free plant").all()
+    plain = peers.comparison_table(measured, predictions, inside, test, matched_measured, matched, fits)
+    assert "rmse_truth_out_of_support" not in plain and not plain["evaluated_on"].str.contains("truth").any()
