@@ -3,12 +3,13 @@
 Greedy, one point at a time. Candidates are the k-means centres of the out-of-support parts in
 DoE-standardized space (weighted, recent parts more), kept inside the physical limits: the union of
 the DoE's and the production's ranges, widened by ``margin`` of that span, never beyond. Each step
-takes the candidate that brings the most (weighted) parts into the support, scored with the current
-gate (a part's mean distance to its k nearest DoE points, the new point among them); ties go to the
-candidate that shortens the parts' distances to the support most, weighted up where the surrogate
-is least sure (a point there also teaches the surrogate most). Then the gate is rebuilt as the
-workflow would rebuild it on the enlarged DoE (standardization and threshold refitted), and the
-parts it brings in, and the share in support, are counted with that gate.
+takes the candidate that brings the most (weighted) parts into the support of today's gate held (its
+standardization and threshold; a part's mean distance to its k nearest DoE points, the points added
+so far among them); ties go to the candidate that shortens the parts' distances to the support most,
+weighted up where the surrogate is least sure (a point there also teaches the surrogate most). Then
+the gate is rebuilt as the workflow would rebuild it on the enlarged DoE (standardization and
+threshold refitted), and the parts it brings in, and the share in support, are counted with that
+gate; the share under today's gate held is reported beside it.
 """
 
 from __future__ import annotations
@@ -115,18 +116,20 @@ def propose(
     if inside.all() or settings.n_points == 0:
         return Proposal(np.empty((0, doe.shape[1])), [], [], share_before, np.empty(0), [], len(counted), n_production)
     outside = ~inside
-    # points far from the DoE raise the rebuilt gate's threshold (a percentile of the DoE's own distances):
-    # candidates are chosen, and also counted, against today's threshold, so a point earns its place by coverage
-    threshold = gate.threshold_
+    # points far from the DoE raise the rebuilt gate's threshold (a percentile of the DoE's own distances) and
+    # widen its standardization: candidates are chosen, and also counted, with today's gate held (its
+    # standardization and threshold, the new points among its reference), so a point earns its place by coverage
+    today = held_gate = gate
+    threshold = today.threshold_
     held = inside.copy()
-    z = gate.standardizer_.transform(production[outside])
+    z = today.standardizer_.transform(production[outside])
     clusters = min(settings.n_candidates, int(outside.sum()))
     centres = (
         KMeans(n_clusters=clusters, n_init=1, random_state=settings.seed)
         .fit(z, sample_weight=weights[outside])
         .cluster_centers_
     )
-    candidates = np.clip(centres * gate.standardizer_.scale_ + gate.standardizer_.mean_, low, high)
+    candidates = np.clip(centres * today.standardizer_.scale_ + today.standardizer_.mean_, low, high)
     raw_std = np.asarray(surrogate_std(candidates), float) if surrogate_std is not None else np.zeros(len(candidates))
     uncertainty = 1.0 + raw_std / raw_std.max() if raw_std.max() > 0 else np.ones(len(candidates))
     available = np.ones(len(candidates), bool)
@@ -135,17 +138,17 @@ def propose(
         if held.all() or not available.any():
             break
         out_rows = np.flatnonzero(~held)
-        z_out = gate.standardizer_.transform(production[out_rows])
-        nearest = _nearest(gate.reference_, z_out, k)
-        z_candidates = gate.standardizer_.transform(candidates[available])
+        z_out = today.standardizer_.transform(production[out_rows])
+        nearest = _nearest(held_gate.reference_, z_out, k)
+        z_candidates = today.standardizer_.transform(candidates[available])
         count, shortened = _chunked_gain(z_out, nearest, z_candidates, threshold, weights[out_rows])
         order = np.lexsort((-shortened * uncertainty[available], -count))
         pick = np.flatnonzero(available)[order[0]]
         available[pick] = False
         current_doe = np.vstack([current_doe, candidates[pick]])
         gate = KNNSupportGate(k=k, percentile=percentile).fit(current_doe)  # as the workflow would rebuild it
-        distance = gate.distance(production)
-        now_inside, now_held = gate.within(distance), distance <= threshold
+        held_gate = KNNSupportGate(k=k, percentile=percentile, standardizer=today.standardizer_).fit(current_doe)
+        now_inside, now_held = gate.predict(production), held_gate.distance(production) <= threshold
         points.append(candidates[pick])
         brought.append(counted[np.flatnonzero(now_inside & ~inside)])
         shares.append(float(now_inside.mean()))

@@ -117,11 +117,18 @@ def test_what_a_point_serves_by_hand():
             "strokes": np.arange(10) * 100,  # a number, not an id
         }
     )
+    production["grade"] = ["DC04", "DC05", "DC06", "DC04", "DC04", "DC05", "DC06", "DC06", "DC04", "DC04"]
+    production["die"] = ["p"] * 10  # an input given as text: an input, not an id
     rows = np.array([2, 3, 5, 9])
-    served = enrichment._served(production, rows, ["a"])
+    served = enrichment._served(production, rows, ["a", "die"])
     assert served == (
-        "rows 3-10; timestamp 2026-01-01 02:10 to 2026-01-01 09:45; coil_id C1 (75%) and 1 more; shift A (100%)"
-    )
+        "rows 3-10; timestamp 2026-01-01 02:10 to 2026-01-01 09:45; coil_id C1 (75%) and 1 more; shift A (100%); "
+        "grade DC04 (50%) and 2 more"
+    )  # 3 levels among 4 rows are named; the serials (a level each) are not
+    # on more rows, a column is named while it has at most half as many levels as rows
+    production["grade"] = ["G1", "G2", "G3", "G4", "G1", "G1", "G1", "G1", "G1", "G5"]
+    assert "grade G1 (62%) and 3 more" in enrichment._served(production, np.arange(8), ["a"])
+    assert "grade" not in enrichment._served(production, np.array([0, 1, 2, 3, 4, 5, 6, 9]), ["a"])  # 5 levels
     assert enrichment._served(production, np.array([], int), ["a"]).startswith("no part on its own")
 
 
@@ -169,6 +176,7 @@ def test_the_proposals_table_by_hand():
 def test_weights_limits_and_gains_by_hand():
     np.testing.assert_allclose(enrichment.recency_weights(5, 2.0), [1.0, 1.5, 2.0, 2.5, 3.0])
     assert enrichment.recency_weights(1, 2.0).tolist() == [1.0]
+    assert enrichment.recency_weights(2, 2.0).tolist() == [1.0, 3.0]
     low, high = enrichment.physical_limits(np.array([[0.0, 5.0], [2.0, 6.0]]), np.array([[1.0, 4.0], [3.0, 5.0]]), 0.1)
     np.testing.assert_allclose(low, [-0.3, 3.8])
     np.testing.assert_allclose(high, [3.3, 6.2])
@@ -181,6 +189,10 @@ def test_weights_limits_and_gains_by_hand():
     # candidate 2: part 1 keeps 1.2 (3.0 is farther than its 3rd), part 2 (1.0 + 1.5 + 0.1) / 3 = 0.867 in
     np.testing.assert_allclose(count, [1.0, 3.0])
     np.testing.assert_allclose(shortened, [(1.2 - 1.7 / 3) + 3 * (1.5 - 1.1), 3 * (1.5 - 2.6 / 3)])
+    # on the threshold: a part already at it is in (brought by nobody); one brought exactly to it counts
+    at = np.array([[0.5, 1.0, 1.5], [1.0, 1.5, 2.0]])
+    count, _ = enrichment._gain(at, np.array([[0.1], [0.5]]), 1.0, np.array([1.0, 1.0]))
+    assert count.tolist() == [1.0]
 
 
 def test_gains_summed_over_chunks_of_parts_are_those_of_one_chunk(monkeypatch):
@@ -209,7 +221,9 @@ def test_each_point_is_counted_with_the_rebuilt_gate_and_with_todays_threshold()
         rebuilt = KNNSupportGate(k=k, percentile=percentile).fit(np.vstack([doe, proposal.points[: j + 1]]))
         now = rebuilt.predict(production)
         assert proposal.share_after[j] == pytest.approx(now.mean())
-        held = rebuilt.distance(production) <= today.threshold_
+        # today's gate held: its standardization and threshold, the points added so far among its reference
+        held_gate = KNNSupportGate(k=k, percentile=percentile, standardizer=today.standardizer_)
+        held = held_gate.fit(np.vstack([doe, proposal.points[: j + 1]])).distance(production) <= today.threshold_
         assert proposal.share_after_fixed_threshold[j] == pytest.approx(held.mean())
         np.testing.assert_array_equal(proposal.brought_in[j], np.flatnonzero(now & ~before))
         before = now
@@ -228,8 +242,11 @@ def test_parts_brought_in_decide_and_the_surrogates_doubt_breaks_a_tie():
         std = lambda points, axis=unsure_at: points[:, axis]  # noqa: E731
         first = enrichment.propose(doe, production, 5, 95, settings, surrogate_std=std).points[0]
         np.testing.assert_allclose(first, where, atol=0.05)
-    # a bigger cluster wins over the surrogate's doubt
-    bigger = np.vstack([production, rng.normal([2.0, 0.5], 0.02, (50, 2))])
-    first = enrichment.propose(doe, bigger, 5, 95, settings, surrogate_std=lambda p: p[:, 1]).points[0]
-    np.testing.assert_allclose(first, [2.0, 0.5], atol=0.05)
+    # with one neighbour, a point brings a whole cluster in: the one of more parts wins over the surrogate's
+    # doubt and over the larger distance the other one would remove
+    near_many = rng.normal([1.4, 0.5], 0.02, (100, 2))
+    far_few = rng.normal([3.0, 3.0], 0.02, (60, 2))
+    chosen = enrichment.propose(doe, np.vstack([near_many, far_few]), 1, 95, settings, surrogate_std=lambda p: p[:, 1])
+    np.testing.assert_allclose(chosen.points[0], [1.4, 0.5], atol=0.05)
+    assert chosen.brought_in[0].tolist() == list(range(100))
     assert enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=0)).points.shape == (0, 2)

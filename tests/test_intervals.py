@@ -356,6 +356,16 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     for name, model in calibrated.intervals.recommended.items():
         assert set(flagged[flagged["region"] == name]["model"]) == {model, "recommended"}
     assert "hybrid_unfiltered" not in calibrated.intervals.recommended.values()  # reported, never recommended
+    # each region's ranking (the stack aside) by hand: RMSE on the region's calibration rows, chosen as in support
+    # for the rows beyond the DoE's range inside the gate
+    choice = np.where(inside, "in_support", region)
+    for name, ranking in calibrated.intervals.ranking.items():
+        cal = calibration & (choice == name)
+        scores = {
+            m: np.sqrt(np.mean((measured[cal] - honest[m][cal]) ** 2))
+            for m in ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid")
+        }
+        assert [m for m in ranking if m != "stack"] == sorted(scores, key=scores.get), name
     assert calibrated.intervals.max_distance == pytest.approx(distance[outside].max())
     assert calibrated.table["evaluated_on"].str.endswith("against the demo's noise-free plant").all()
     assert rows.loc[("out_of_support_2", "hybrid", "by_region"), "region_label"] == (

@@ -174,7 +174,8 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     measured = truth + rng.normal(0, 1, n)
     predictions = {model: truth + rng.normal(0, 1 + k, n) for k, model in enumerate(peers.COMPARED)}
     predictions["gp_discrepancy"][::7] = np.nan  # a peer without an honest value on some parts
-    predictions["hybrid_unfiltered"] = truth  # not compared: no honest value out of the support
+    predictions["hybrid_unfiltered"] = np.where(np.arange(n) % 5 == 0, np.nan, truth)  # not compared: its gaps
+    # do not take rows from the others
     matched_measured = np.array([1.0, 2.0, 3.0])
     matched = {"hybrid": np.array([1.5, 2.0, 3.0]), "cokriging": np.array([1.0, 2.0, 4.0])}
     fits = {"gp_discrepancy": {"n_train": 700}, "cokriging": {"n_train": 300}}
@@ -199,5 +200,8 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     assert table.loc["gp_discrepancy", "n_train"] == 700 and table.loc["cokriging", "n_train"] == 300
     assert np.isnan(table.loc["hybrid", "n_train"])
     assert table["evaluated_on"].str.endswith("truth = the demo's noise-free plant").all()
-    plain = peers.comparison_table(measured, predictions, inside, test, matched_measured, matched, fits)
+    assert "hybrid_unfiltered" not in table.index
+    without = {m: p for m, p in predictions.items() if m != "cokriging"}
+    plain = peers.comparison_table(measured, without, inside, test, matched_measured, matched, fits)
+    assert "cokriging" not in plain["model"].tolist() and len(plain) == len(peers.COMPARED) - 1
     assert "rmse_truth_out_of_support" not in plain and not plain["evaluated_on"].str.contains("truth").any()
