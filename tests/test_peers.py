@@ -205,3 +205,34 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     plain = peers.comparison_table(measured, without, inside, test, matched_measured, matched, fits)
     assert "cokriging" not in plain["model"].tolist() and len(plain) == len(peers.COMPARED) - 1
     assert "rmse_truth_out_of_support" not in plain and not plain["evaluated_on"].str.contains("truth").any()
+
+
+@pytest.mark.parametrize("kind", peers.PEERS)
+def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, kind):
+    import json
+
+    doe, residuals = _peer_frames(case, np.arange(len(case["parts"])) % 2 == 0)
+    settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150}
+    fit = peers.fit_peer(kind, doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3, n_folds=3)
+    again = peers.fit_peer(kind, doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3, n_folds=3)
+    np.testing.assert_array_equal(again.production.to_numpy(), fit.production.to_numpy())
+    assert fit.fit_seconds > 0
+    # the training parts are the seed's (the GP's one seed on, so that its rows differ from co-kriging's)
+    offset = 1 if kind == "gp_discrepancy" else 0
+    assert np.array_equal(fit.model.training_rows_, crossval.training_subset(750, 150, 3 + offset))
+    data = json.loads(json.dumps(fit.model.to_dict()))
+    assert (
+        data["format"] == {"gp_discrepancy": "hybridtwin.GPDiscrepancy/1", "cokriging": "hybridtwin.CoKriging/1"}[kind]
+    )
+    assert data["inputs"] == COLUMNS and data["training_rows"] == fit.model.training_rows_.tolist()
+    loaded = peers.load_peer(kind, data)
+    assert type(loaded) is type(fit.model)
+    np.testing.assert_array_equal(loaded.predict(case["new"][COLUMNS[::-1]]), fit.model.predict(case["new"]))
+    with pytest.raises(ValueError, match="^unknown peer 'kriging'; one of gp_discrepancy, cokriging$"):
+        peers.fit_peer("kriging", doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3)
+
+
+def test_the_peers_threads_default_to_the_cores_this_process_may_use():
+    import os
+
+    assert peers.available_cores() == len(os.sched_getaffinity(0))
