@@ -87,10 +87,9 @@ def main() -> None:
     parser.add_argument("--demo-kinds", nargs="*", default=list(scenarios.KINDS))
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
-    defaults = config.schema()["properties"]["peers"]["properties"]
+    defaults = config.section_defaults("peers")
     for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high"):
-        flag = f"--{key.replace('_', '-')}"
-        parser.add_argument(flag, type=int, default=defaults[key]["default"], help=f"peers.{key}")
+        parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     peer_settings = {key: getattr(args, key) for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high")}

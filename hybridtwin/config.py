@@ -41,6 +41,12 @@ def schema() -> dict:
     return yaml.safe_load(SCHEMA_PATH.read_text())
 
 
+def section_defaults(section: str) -> dict:
+    """The defaults of one config section's keys (``peers``: the peers' sizes), as the workflow fills them in."""
+    properties = schema()["properties"][section]["properties"]
+    return {key: spec["default"] for key, spec in properties.items() if "default" in spec}
+
+
 def _with_defaults(validator_class):
     """A validator that fills in each missing key's default before checking it (as Snakemake's ``validate``)."""
     check_properties = validator_class.VALIDATORS["properties"]

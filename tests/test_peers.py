@@ -232,7 +232,23 @@ def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, ki
         peers.fit_peer("kriging", doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3)
 
 
+@pytest.mark.skipif(not hasattr(__import__("os"), "sched_getaffinity"), reason="no CPU affinity on this platform")
 def test_the_peers_threads_default_to_the_cores_this_process_may_use():
     import os
 
     assert peers.available_cores() == len(os.sched_getaffinity(0))
+
+
+def test_the_benchmarks_peer_sizes_are_the_workflows_defaults():
+    from pathlib import Path
+
+    import yaml
+
+    from hybridtwin import config
+
+    from .conftest import ROOT
+
+    workflow = yaml.safe_load((Path(ROOT) / "config/config.yaml").read_text())
+    workflow.pop("peers", None)
+    assert config.section_defaults("peers") == config.check(workflow)["peers"]
+    assert config.section_defaults("peers")["cokriging_n_high"] == 500

@@ -507,7 +507,7 @@ def compare_models(
     frame.loc[rows, "pred_hybrid_oof"] = mean[rows] + hybrid_oof
     frame.loc[rows, "pred_extended_oof"] = mean[rows] + oof_extended
     frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
-    peer_settings = peer_settings or {"gp_n_hyper": 500, "gp_n_fit": 2000, "cokriging_n_high": 500}
+    peer_settings = {**config.section_defaults("peers"), **(peer_settings or {})}
     for kind in peers.PEERS:
         fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed, folds)
         frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
