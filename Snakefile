@@ -7,7 +7,7 @@ from pathlib import Path
 from snakemake.utils import min_version
 
 sys.path.insert(0, workflow.basedir)  # the package beside this file, installed or not
-from hybridtwin.config import ConfigError, check, missing_data_files  # noqa: E402 (light: no numpy, pandas)
+from hybridtwin.io.config import ConfigError, check, missing_data_files  # noqa: E402 (light: no numpy, pandas)
 
 min_version("9.0")
 

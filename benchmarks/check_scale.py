@@ -19,12 +19,12 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from hybridtwin.config import check
+from hybridtwin.io.config import check
 
 MEASURE = """
 import json, resource, sys, time
 import pandas as pd
-from hybridtwin import data
+from hybridtwin.io import data
 path, how, config = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
 start = time.perf_counter()
 if how == "pandas":

@@ -33,7 +33,7 @@ from sklearn.cluster import KMeans
 
 from hybridtwin import enrichment
 from hybridtwin.demo import plant as demo
-from hybridtwin.gate import KNNSupportGate
+from hybridtwin.paper.gate import KNNSupportGate
 
 ROOT = Path(__file__).resolve().parents[1]
 

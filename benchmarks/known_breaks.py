@@ -15,9 +15,9 @@ from pathlib import Path
 from mutation import fast_tests
 
 BREAKS = [
-    ("hybridtwin/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
-    ("hybridtwin/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
-    ("hybridtwin/diagnosis.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
+    ("hybridtwin/diagnosis/forms.py", "self.offsets.get(level, self.overall)", "self.offsets.get(level, 0.0)"),
+    ("hybridtwin/diagnosis/forms.py", "for _ in range(passes if len(values) > 1 else 1):", "for _ in range(1):"),
+    ("hybridtwin/diagnosis/naming.py", 'kind in ("time", "interaction")', 'kind in ("interaction",)'),
     ("hybridtwin/crossval.py", "    spliced[np.asarray(rows, int)] = np.asarray(oof, float)\n", ""),
     (
         "hybridtwin/metrics.py",
@@ -25,25 +25,29 @@ BREAKS = [
         "np.array_split(values, len(values))",
     ),
     (
-        "hybridtwin/diagnosis.py",
+        "hybridtwin/diagnosis/fits.py",
         "    if not fits or fits[0].form.name != forms.Monotone.name:\n        return fits",
         "    return fits",
     ),
-    ("hybridtwin/forms.py", "(np.asarray(x, float) >= self.threshold)", "(np.asarray(x, float) > self.threshold)"),
     (
-        "hybridtwin/extension.py",
+        "hybridtwin/diagnosis/forms.py",
+        "(np.asarray(x, float) >= self.threshold)",
+        "(np.asarray(x, float) > self.threshold)",
+    ),
+    (
+        "hybridtwin/diagnosis/extension.py",
         "return self.offset_ + sum(self.contributions(frame).values(), np.zeros(len(frame)))",
         "return sum(self.contributions(frame).values(), np.zeros(len(frame)))",
     ),
     (
-        "hybridtwin/report.py",
+        "hybridtwin/report/diagnosis_md.py",
         'direction = "higher" if offset > 0 else "lower"',
         'direction = "lower" if offset > 0 else "higher"',
     ),
     (
-        "hybridtwin/tables.py",
-        '"pred_hybrid_gated": gated(surrogate, filtered, inside)',
-        '"pred_hybrid_gated": surrogate + filtered',
+        "hybridtwin/models/compose.py",
+        "return np.where(np.asarray(in_support, bool), hybrid, surrogate).astype(float)",
+        "return np.asarray(hybrid, float)",
     ),
 ]
 

@@ -113,12 +113,18 @@ def changed_lines(module: Path) -> dict[str, tuple[str, str]]:
             continue
         diff = [(a.strip(), b.strip()) for a, b in zip(original[1:], lines[1:]) if a != b]
         if len(diff) == 1:
-            changes[f"hybridtwin.{module.stem}.{name}"] = diff[0]
+            changes[f"{dotted(module)}.{name}"] = diff[0]
     return changes
 
 
+def dotted(module: Path) -> str:
+    """hybridtwin.diagnosis.fits for mutants/hybridtwin/diagnosis/fits.py."""
+    return ".".join(module.relative_to(ROOT / "mutants").with_suffix("").parts)
+
+
 def module_of(mutant: str) -> str:
-    return mutant.split(".")[1]
+    """A mutant's module as the table names it (diagnosis.fits for hybridtwin.diagnosis.fits.x_fit__mutmut_3)."""
+    return ".".join(mutant.split(".")[1:-1])
 
 
 def table(status: dict[str, str], equivalent: dict[str, str]) -> list[str]:
@@ -160,7 +166,7 @@ def main() -> int:
     status = statuses()
     changes = {
         name: change
-        for module in (ROOT / "mutants" / "hybridtwin").glob("*.py")
+        for module in (ROOT / "mutants" / "hybridtwin").rglob("*.py")
         for name, change in changed_lines(module).items()
     }
     listed = equivalent_mutants()

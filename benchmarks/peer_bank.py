@@ -17,10 +17,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from hybridtwin import config
 from hybridtwin.demo import families, scenarios
-
-PEERS = ("gp_discrepancy", "cokriging")
+from hybridtwin.io import config
+from hybridtwin.models.registry import PEER_NAMES as PEERS
 
 
 def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None):

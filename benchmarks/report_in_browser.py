@@ -19,8 +19,8 @@ import sys
 import time
 from pathlib import Path
 
-from hybridtwin import pages
-from hybridtwin.files import read_checked
+from hybridtwin.io.files import read_checked
+from hybridtwin.report import pages
 
 ROWS_CHECKED = 3
 

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from hybridtwin import residual
+from hybridtwin.paper import residual
 
 ROOT = Path(__file__).resolve().parents[1]
 

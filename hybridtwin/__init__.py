@@ -5,7 +5,7 @@ with the models a workflow run wrote (see ``hybridtwin.predictor``)."""
 def __getattr__(name):
     # imported on first use, so that ``import hybridtwin.demo`` stays light
     if name == "Predictor":
-        from .predictor import Predictor
+        from hybridtwin.answers.predictor import Predictor
 
         return Predictor
     raise AttributeError(f"module 'hybridtwin' has no attribute {name!r}")

@@ -15,8 +15,8 @@ import sys
 
 import pandas as pd
 
-from .data import SEPARATORS, CsvFormat, InputError
-from .predictor import Predictor
+from hybridtwin.answers.predictor import Predictor
+from hybridtwin.io.data import SEPARATORS, CsvFormat, InputError
 
 
 def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:

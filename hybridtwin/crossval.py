@@ -7,7 +7,7 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import KFold
 
-from .metrics import scores
+from hybridtwin.metrics import scores
 
 
 def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:

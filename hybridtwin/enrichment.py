@@ -21,8 +21,8 @@ import pandas as pd
 from scipy.spatial.distance import cdist
 from sklearn.cluster import KMeans
 
-from .crossval import training_subset
-from .gate import KNNSupportGate
+from hybridtwin.crossval import training_subset
+from hybridtwin.paper.gate import KNNSupportGate
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """Write the demo plant's CSVs and its noise-free truth."""
 
-from hybridtwin import demo, files
-from hybridtwin.runner import run
+from hybridtwin import demo
+from hybridtwin.io import files
+from hybridtwin.io.runner import run
 
 
 def main(snakemake):

@@ -1,8 +1,9 @@
 """results/diagnosis.md: what the simulation gets wrong, in words, with numbers and units."""
 
-from hybridtwin import files, report
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.report import diagnosis_md as report
 
 
 def main(snakemake):

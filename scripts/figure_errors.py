@@ -1,8 +1,9 @@
 """Step 8: Figure 3, error distributions of surrogate and hybrid, in support (out-of-fold) and on matched cases."""
 
-from hybridtwin import files, plots
-from hybridtwin.files import in_support, read_checked
-from hybridtwin.runner import run
+from hybridtwin.io import files
+from hybridtwin.io.files import in_support, read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.report import plots
 
 
 def main(snakemake):

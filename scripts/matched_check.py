@@ -2,11 +2,13 @@
 
 import numpy as np
 
-from hybridtwin import files, plots, residual
-from hybridtwin.files import in_support, read_checked
-from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
-from hybridtwin.tables import matched_summary
+from hybridtwin.io import files
+from hybridtwin.io.files import in_support, read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper import residual
+from hybridtwin.paper.surrogate import GPRSurrogate
+from hybridtwin.paper.tables import matched_summary
+from hybridtwin.report import plots
 
 
 def main(snakemake):

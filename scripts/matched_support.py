@@ -1,8 +1,8 @@
 """The matched cases' distance to the DoE and their in_support, with the workflow's gate."""
 
-from hybridtwin import data, files
-from hybridtwin.gate import KNNSupportGate
-from hybridtwin.runner import run
+from hybridtwin.io import data, files
+from hybridtwin.io.runner import run
+from hybridtwin.paper.gate import KNNSupportGate
 
 
 def main(snakemake):

@@ -1,21 +1,20 @@
 """Predictions for every production row, in input order."""
 
-from hybridtwin import files, residual
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
-from hybridtwin.tables import production_predictions
+from hybridtwin import pipeline
+from hybridtwin.io import files
+from hybridtwin.io.runner import run, spec_of
+from hybridtwin.paper import residual
 
 
 def main(snakemake):
-    production = read_checked(snakemake.input.production, snakemake.params.inputs)
-    X = production[snakemake.params.inputs].to_numpy(float)
-    table = production_predictions(
-        residuals=read_checked(snakemake.input.residuals),
-        support=read_checked(snakemake.input.support),
-        filtered=residual.load_model(snakemake.input.filtered_model).predict(X),
-        unfiltered=residual.load_model(snakemake.input.unfiltered_model).predict(X),
-        filtered_oof=read_checked(snakemake.input.filtered_oof),
-        unfiltered_oof=read_checked(snakemake.input.unfiltered_oof),
+    spec = spec_of(snakemake)
+    table = pipeline.hybrid_predictions(
+        files.read_checked(snakemake.input.production, spec.inputs),
+        files.read_checked(snakemake.input.residuals),
+        files.read_checked(snakemake.input.support),
+        {training: residual.load_model(snakemake.input[f"{training}_model"]) for training in residual.TRAINING_SETS},
+        {training: files.read_checked(snakemake.input[f"{training}_oof"]) for training in residual.TRAINING_SETS},
+        spec,
     )
     files.write_csv(table, snakemake.output.predictions)
 

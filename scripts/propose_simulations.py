@@ -2,10 +2,12 @@
 
 import logging
 
-from hybridtwin import enrichment, files, plots
-from hybridtwin.files import in_support, read_checked
-from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin import enrichment
+from hybridtwin.io import files
+from hybridtwin.io.files import in_support, read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper.surrogate import GPRSurrogate
+from hybridtwin.report import plots
 
 
 def main(snakemake):

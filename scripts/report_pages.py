@@ -2,9 +2,10 @@
 
 from pathlib import Path
 
-from hybridtwin import files, pages
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.report import pages
 
 
 def main(snakemake):

@@ -1,9 +1,10 @@
 """Step 9: Table 5, RMSE in and out of the support for the four prediction strategies."""
 
-from hybridtwin import files, residual
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
-from hybridtwin.tables import sensitivity_table
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper import residual
+from hybridtwin.paper.tables import sensitivity_table
 
 
 def main(snakemake):

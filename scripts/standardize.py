@@ -2,10 +2,10 @@
 
 import pandas as pd
 
-from hybridtwin import files
-from hybridtwin.files import read_checked
-from hybridtwin.gate import DoEStandardizer
-from hybridtwin.runner import run
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper.gate import DoEStandardizer
 
 
 def main(snakemake):

@@ -1,26 +1,26 @@
 """Step 2: kNN support gate; distance and in_support for every production row."""
 
-from hybridtwin import data, files, plots
-from hybridtwin.gate import DoEStandardizer, KNNSupportGate
-from hybridtwin.runner import run
+from hybridtwin import pipeline
+from hybridtwin.io import data, files
+from hybridtwin.io.runner import run, spec_of
+from hybridtwin.paper.gate import DoEStandardizer
+from hybridtwin.report import plots
 
 
 def main(snakemake):
-    inputs = snakemake.params.inputs
-    doe, production = (files.read_checked(snakemake.input[name], inputs) for name in ("doe", "production"))
+    p, spec = snakemake.params, spec_of(snakemake)
+    doe, production = (files.read_checked(snakemake.input[name], spec.inputs) for name in ("doe", "production"))
     standardizer = DoEStandardizer.from_dict(files.read_json(snakemake.input.standardization))
-    gate = KNNSupportGate(k=snakemake.params.k, percentile=snakemake.params.percentile, standardizer=standardizer).fit(
-        doe[inputs]
-    )
-    support = gate.support_table(production[inputs])
-    distance = support["knn_distance"].to_numpy()
+    found = pipeline.support(doe, production, spec, p.k, p.percentile, standardizer)
     data.check_support(
-        support["in_support"].to_numpy(), doe, production, inputs, snakemake.params.paths, gate.threshold_
+        found.table["in_support"].to_numpy(), doe, production, spec.inputs, p.paths, found.gate.threshold_
     )
-    files.write_json(gate.to_dict(), snakemake.output.model)
-    files.write_csv(support, snakemake.output.production)
+    files.write_json(found.gate.to_dict(), snakemake.output.model)
+    files.write_csv(found.table, snakemake.output.production)
     files.save_figure(
-        plots.support_distances(gate.doe_distances_, distance, gate.threshold_, snakemake.params.percentile),
+        plots.support_distances(
+            found.gate.doe_distances_, found.table["knn_distance"].to_numpy(), found.gate.threshold_, p.percentile
+        ),
         snakemake.output.figure,
     )
 

@@ -1,10 +1,11 @@
 """Step 3a: K-fold CV of the GPR surrogate on the DoE -> Table 2 and a parity plot."""
 
-from hybridtwin import files, plots
 from hybridtwin.crossval import cross_validate, cv_table
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper.surrogate import GPRSurrogate
+from hybridtwin.report import plots
 
 
 def main(snakemake):

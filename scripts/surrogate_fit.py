@@ -2,16 +2,13 @@
 
 import logging
 
-from hybridtwin import files
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin import pipeline
+from hybridtwin.io import files
+from hybridtwin.io.runner import run, spec_of
 
 
 def main(snakemake):
-    doe = read_checked(snakemake.input.doe)
-    model = GPRSurrogate(n_restarts=snakemake.params.n_restarts, random_state=snakemake.params.seed)
-    model.fit(doe[snakemake.params.inputs], doe[snakemake.params.target])
+    model = pipeline.surrogate(files.read_checked(snakemake.input.doe), spec_of(snakemake), snakemake.params.n_restarts)
     logging.info("fitted kernel %s; noise %.3f", model.gpr_.kernel_, model.noise_std_)
     files.write_json(model.to_dict(), snakemake.output.model)
 

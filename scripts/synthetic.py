@@ -1,11 +1,12 @@
 """Step 10: synthetic corrected data, the hybrid on the DoE points and on samples drawn inside the support."""
 
-from hybridtwin import files, residual
-from hybridtwin.files import read_checked
-from hybridtwin.gate import KNNSupportGate
-from hybridtwin.hybrid import sample_in_support, synthetic_frame
-from hybridtwin.runner import run
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper import residual
+from hybridtwin.paper.gate import KNNSupportGate
+from hybridtwin.paper.hybrid import sample_in_support, synthetic_frame
+from hybridtwin.paper.surrogate import GPRSurrogate
 
 
 def main(snakemake):

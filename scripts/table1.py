@@ -1,9 +1,9 @@
 """Table 1: the data sets and their roles."""
 
-from hybridtwin import files
-from hybridtwin.files import read_checked
-from hybridtwin.runner import run
-from hybridtwin.tables import dataset_summary
+from hybridtwin.io import files
+from hybridtwin.io.files import read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper.tables import dataset_summary
 
 
 def main(snakemake):

@@ -7,9 +7,10 @@ writes the best parameters, the trials and Table 4.
 
 import logging
 
-from hybridtwin import files, residual
-from hybridtwin.files import in_support, read_checked
-from hybridtwin.runner import run
+from hybridtwin.io import files
+from hybridtwin.io.files import in_support, read_checked
+from hybridtwin.io.runner import run
+from hybridtwin.paper import residual
 
 
 def main(snakemake):

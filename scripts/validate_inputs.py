@@ -2,8 +2,8 @@
 
 import warnings
 
-from hybridtwin import data, files
-from hybridtwin.runner import run
+from hybridtwin.io import data, files
+from hybridtwin.io.runner import run
 
 
 def main(snakemake):

@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
-from hybridtwin.predictor import Predictor
-from hybridtwin.runner import run
+from hybridtwin.answers.predictor import Predictor
+from hybridtwin.io.runner import run
 
 
 def main(snakemake):

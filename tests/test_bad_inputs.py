@@ -21,8 +21,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from hybridtwin.config import check
-from hybridtwin.data import (
+from hybridtwin.io.config import check
+from hybridtwin.io.data import (
     Columns,
     CsvFormat,
     DataWarning,
@@ -33,7 +33,7 @@ from hybridtwin.data import (
     require_columns,
     warn_matched_outside,
 )
-from hybridtwin.gate import KNNSupportGate
+from hybridtwin.paper.gate import KNNSupportGate
 
 from .conftest import run_command
 
@@ -150,7 +150,7 @@ def test_clean_data_loads_without_warning(case):
 
 @pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
 def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, monkeypatch, sep, decimal):
-    from hybridtwin import data
+    from hybridtwin.io import data
 
     production = case.frames["production"]
     production["stamp"] = pd.date_range("2026-01-01", periods=30, freq="min").astype(str)
@@ -168,14 +168,14 @@ def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, mo
 
 @pytest.mark.parametrize("text", ["", "nan", "inf", "1,5", "12 mm"])
 def test_the_one_pass_reader_leaves_any_doubtful_number_to_the_careful_reader(case, text):
-    from hybridtwin import data
+    from hybridtwin.io import data
 
     case.set_cell("production", 4, "die_temp_c", text)
     assert data._read_clean(case.path("production"), [*INPUTS, TARGET], CsvFormat()) is None
 
 
 def test_the_one_pass_reader_leaves_wide_and_blank_rows_to_the_careful_reader(case):
-    from hybridtwin import data
+    from hybridtwin.io import data
 
     lines = case.path("production").read_text().splitlines()
     numeric = [*INPUTS, TARGET]

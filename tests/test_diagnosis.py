@@ -8,10 +8,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin import diagnosis, forms
-from hybridtwin.causes import Cause
+from hybridtwin import diagnosis
 from hybridtwin.crossval import folds
-from hybridtwin.diagnosis import Candidate, Settings
+from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
+from hybridtwin.diagnosis import fits as fitting
+from hybridtwin.diagnosis.causes import Cause
 from tests.test_diagnosis_rules import coil_plant, warming_die
 
 
@@ -182,13 +183,13 @@ def test_the_summary_names_the_cause_an_id_stands_for():
 
 def test_between_level_sums_of_squares_by_hand():
     # level means a: 2 (two rows), b: 8 (one row); overall mean 4: 2 * (2 - 4)**2 + 1 * (8 - 4)**2
-    assert diagnosis.between_level_ss(np.array(list("aab")), [1.0, 3.0, 8.0]) == pytest.approx(24.0)
+    assert naming.between_level_ss(np.array(list("aab")), [1.0, 3.0, 8.0]) == pytest.approx(24.0)
 
 
 def test_an_id_whose_levels_do_not_differ_is_nobodys_proxy():
     levels = np.array(list("aabb"))
-    coil = diagnosis.Fit(Candidate.new("coil", "group", levels, ("coil",)), None, None, 1, 1, 0, 0, 0, 0)
-    lube = diagnosis.Fit(
+    coil = fitting.Fit(Candidate.new("coil", "group", levels, ("coil",)), None, None, 1, 1, 0, 0, 0, 0)
+    lube = fitting.Fit(
         Candidate.new("lube", "log", np.arange(4.0), ("lube",)),
         forms.Linear().fit([0, 3], [0, 0.3]),
         None,
@@ -199,10 +200,10 @@ def test_an_id_whose_levels_do_not_differ_is_nobodys_proxy():
         0,
         0,
     )
-    assert diagnosis.proxy_share(coil, lube, np.array([0.1, -0.1, 0.1, -0.1])) == 0.0
+    assert naming.proxy_share(coil, lube, np.array([0.1, -0.1, 0.1, -0.1])) == 0.0
     # small differences between levels still count: 0.5 of the between-level sum of squares
     y = np.array([0.2, 0.2, -0.2, -0.2])
-    half = diagnosis.Fit(
+    half = fitting.Fit(
         Candidate.new("lube", "log", y, ("lube",)),
         forms.Linear().fit([0, 1], [0, 1 - 0.5**0.5]),
         None,
@@ -213,22 +214,22 @@ def test_an_id_whose_levels_do_not_differ_is_nobodys_proxy():
         0,
         0,
     )
-    assert diagnosis.proxy_share(coil, half, y) == pytest.approx(0.5)
+    assert naming.proxy_share(coil, half, y) == pytest.approx(0.5)
 
 
 def test_the_joint_share_is_the_held_out_share_of_the_terms_fitted_together():
     frame, residual = _linear_plant(500)
     x, y = frame["x"].to_numpy(), residual - 2.0  # not centred: the terms' means and the fold means matter
     settings = Settings(folds=5, seed=3)
-    fit = diagnosis.best_fit(Candidate.new("x", "input", x, ("x",)), y, settings)
-    held = diagnosis.held_out("linear", x, y, folds(len(y), 5, 3))  # a single slope: its own held-out fit
+    fit = fitting.best_fit(Candidate.new("x", "input", x, ("x",)), y, settings)
+    held = fitting.held_out("linear", x, y, folds(len(y), 5, 3))  # a single slope: its own held-out fit
     expected = 1.0 - np.mean((y - held) ** 2) / np.mean(y**2)
-    assert diagnosis.joint_share([fit], y, settings) == pytest.approx(expected)
+    assert selection.joint_share([fit], y, settings) == pytest.approx(expected)
     assert 0.5 < expected < 1.0
 
 
 def _column_fit(name, kind, values, y):
-    return diagnosis.best_fit(Candidate.new(name, kind, values, (name,)), y, Settings(folds=5, seed=0))
+    return fitting.best_fit(Candidate.new(name, kind, values, (name,)), y, Settings(folds=5, seed=0))
 
 
 def test_a_better_held_out_fit_wins_only_between_columns_scored_on_their_own_values():
@@ -239,11 +240,11 @@ def test_a_better_held_out_fit_wins_only_between_columns_scored_on_their_own_val
     strong = _column_fit("x", "input", x, y)
     weak = _column_fit("ambient", "log", x + rng.normal(0, 0.5, 2000), y)
     settings = Settings(folds=5, seed=0)
-    assert diagnosis.better_held_out(strong, weak, y, settings)
-    assert not diagnosis.better_held_out(weak, strong, y, settings)
+    assert naming.better_held_out(strong, weak, y, settings)
+    assert not naming.better_held_out(weak, strong, y, settings)
     coil = _column_fit("coil", "group", np.round(x * 20).astype(int).astype(str), y)
-    assert not diagnosis.better_held_out(coil, weak, y, settings)  # ids are left to the proxy rule
-    assert not diagnosis.better_held_out(strong, coil, y, settings)
+    assert not naming.better_held_out(coil, weak, y, settings)  # ids are left to the proxy rule
+    assert not naming.better_held_out(strong, coil, y, settings)
 
 
 def test_a_near_copy_of_the_cause_is_an_alias_and_a_loose_neighbour_is_explained_by_it():
@@ -273,7 +274,7 @@ def _scored(name="x", kind="input", *, cv_mse=1.0, null_mse=4.0, score=-1.0, p_v
     form = forms.Linear()
     form.slope, form.intercept, form.n_params = 1.0, 0.0, n_params
     values = np.arange(4.0)
-    return diagnosis.Fit(
+    return fitting.Fit(
         Candidate.new(name, kind, values, (name,)), form, values, cv_mse, null_mse, score, p_value, 0.0, effect_std
     )
 
@@ -297,13 +298,13 @@ def test_a_cause_is_significant_below_alpha_over_the_tests_with_a_negative_score
     changes, n_tests, significant
 ):
     fit = _scored(**changes)
-    assert diagnosis.is_significant(fit, n_tests, Settings(alpha=0.01), min_effect=0.5) is significant
+    assert fitting.is_significant(fit, n_tests, Settings(alpha=0.01), min_effect=0.5) is significant
 
 
 def test_a_pair_that_is_no_interaction_is_never_significant():
     fit = _scored()
     fit.form = forms.Additive().fit(np.column_stack([np.arange(4.0), np.arange(4.0) ** 2]), np.arange(4.0))
-    assert not diagnosis.is_significant(fit, 1, Settings(), min_effect=0.0)
+    assert not fitting.is_significant(fit, 1, Settings(), min_effect=0.0)
 
 
 @pytest.mark.parametrize(
@@ -319,32 +320,32 @@ def test_a_simpler_cause_may_explain_less_by_what_the_surrogates_error_accounts_
     n_params, min_effect, null_mse, tolerance
 ):
     fit = _scored(n_params=n_params, null_mse=null_mse)
-    assert diagnosis.share_tolerance(fit, min_effect) == pytest.approx(tolerance)
+    assert fitting.share_tolerance(fit, min_effect) == pytest.approx(tolerance)
 
 
 def test_predicting_the_same_is_a_share_within_the_tolerance_and_a_difference_below_the_least_effect():
     reference = _scored(cv_mse=1.0, null_mse=4.0)  # explains 0.75
     at_tolerance = _scored(cv_mse=1.2, null_mse=4.0)  # 0.70: 0.05 less, still the same
     below = _scored(cv_mse=1.25, null_mse=4.0)
-    assert diagnosis.predicts_the_same(at_tolerance, reference, min_effect=0.1)
-    assert not diagnosis.predicts_the_same(below, reference, min_effect=0.1)
+    assert fitting.predicts_the_same(at_tolerance, reference, min_effect=0.1)
+    assert not fitting.predicts_the_same(below, reference, min_effect=0.1)
     # predictions apart by +-1 alternately: a difference of std 1, not below a least effect of 1
     apart = _scored()
     apart.candidate = Candidate.new("x", "input", np.array([1.0, 0.0, 3.0, 2.0]), ("x",))
-    assert diagnosis.predicts_the_same(apart, reference, min_effect=1.0000001)
-    assert not diagnosis.predicts_the_same(apart, reference, min_effect=1.0)
+    assert fitting.predicts_the_same(apart, reference, min_effect=1.0000001)
+    assert not fitting.predicts_the_same(apart, reference, min_effect=1.0)
 
 
 def test_the_best_scoring_column_is_named_for_an_id_and_only_an_id_has_one():
     y = np.array([1.0, 1.0, -1.0, -1.0])
-    coil = diagnosis.Fit(Candidate.new("coil", "group", np.array(list("aabb")), ("coil",)), None, y, 1, 1, 0, 0, 0, 0)
+    coil = fitting.Fit(Candidate.new("coil", "group", np.array(list("aabb")), ("coil",)), None, y, 1, 1, 0, 0, 0, 0)
     lube = _scored("lube", "log", score=-2.0)
     rm = _scored("rm", "input", score=-3.0)
     for fit in (lube, rm):
         fit.candidate = Candidate.new(fit.candidate.name, fit.candidate.kind, y, fit.candidate.columns)
         fit.form = forms.Linear().fit(y, y)
-    assert diagnosis.physical_cause(coil, [coil, lube, rm], y, lambda fit: True) == (rm, pytest.approx(1.0))
-    assert diagnosis.physical_cause(lube, [coil, lube, rm], y, lambda fit: True) == (lube, 0.0)
+    assert naming.physical_cause(coil, [coil, lube, rm], y, lambda fit: True) == (rm, pytest.approx(1.0))
+    assert naming.physical_cause(lube, [coil, lube, rm], y, lambda fit: True) == (lube, 0.0)
 
 
 def test_a_fits_score_is_its_held_out_error_against_no_term_with_a_bic_penalty_in_any_unit():
@@ -353,38 +354,36 @@ def test_a_fits_score_is_its_held_out_error_against_no_term_with_a_bic_penalty_i
     y = 2.0 * x + rng.normal(0, 0.5, 1000)
     y = y - y.mean()
     candidate = Candidate.new("x", "input", x, ("x",))
-    fit = diagnosis.best_fit(candidate, y, Settings())
+    fit = fitting.best_fit(candidate, y, Settings())
     n = len(y)
     assert fit.score == pytest.approx(n * np.log(fit.cv_mse / fit.null_mse) + fit.form.n_params * np.log(n))
     assert fit.null_mse == pytest.approx(np.mean(y**2))
     fitted = fit.form.predict(x)
     assert (fit.effect_range, fit.effect_std) == pytest.approx((np.ptp(fitted), np.std(fitted)))
-    in_metres = diagnosis.best_fit(candidate, y / 1000.0, Settings())
+    in_metres = fitting.best_fit(candidate, y / 1000.0, Settings())
     assert in_metres.score == pytest.approx(fit.score) and in_metres.form.name == fit.form.name
-    noise = diagnosis.best_fit(candidate, rng.normal(0, 0.001, 1000), Settings())
+    noise = fitting.best_fit(candidate, rng.normal(0, 0.001, 1000), Settings())
     assert noise.score > 0  # a millimetre of noise in metres is still noise
 
 
 def test_value_folds_hold_out_whole_stretches_of_values_and_few_levels_get_shuffled_folds():
     settings = Settings(folds=2, seed=4)
     values = np.arange(40.0)
-    splits = diagnosis.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
-    again = diagnosis.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
+    splits = fitting.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
+    again = fitting.value_folds(Candidate.new("x", "input", values, ("x",)), settings)
     assert all(np.array_equal(a[1], b[1]) for a, b in zip(splits, again))  # seeded
     # 4 bins per fold: eight stretches of five values, each held out whole, four in each fold
     for _, test in splits:
         stretches = np.unique(test // 5)
         assert len(stretches) == 4 and len(test) == 20
     five_levels = np.repeat(np.arange(5.0), 8)  # as many levels as folds: each level held out whole
-    for _, test in diagnosis.value_folds(Candidate.new("x", "input", five_levels, ("x",)), Settings(folds=5)):
+    for _, test in fitting.value_folds(Candidate.new("x", "input", five_levels, ("x",)), Settings(folds=5)):
         assert len(np.unique(five_levels[test])) == 1
     three_levels = np.repeat(np.arange(3.0), 10)  # fewer levels than folds: shuffled folds
-    shuffled = diagnosis.value_folds(Candidate.new("x", "input", three_levels, ("x",)), Settings(folds=5, seed=2))
+    shuffled = fitting.value_folds(Candidate.new("x", "input", three_levels, ("x",)), Settings(folds=5, seed=2))
     assert all(np.array_equal(a[1], b[1]) for a, b in zip(shuffled, folds(30, 5, 2)))
     coil = Candidate.new("coil", "group", np.array(list("ab") * 10), ("coil",))
-    assert all(
-        np.array_equal(a[1], b[1]) for a, b in zip(diagnosis.value_folds(coil, Settings(seed=2)), folds(20, 5, 2))
-    )
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(fitting.value_folds(coil, Settings(seed=2)), folds(20, 5, 2)))
 
 
 def test_the_rules_fit_with_their_least_effect():
@@ -392,7 +391,7 @@ def test_the_rules_fit_with_their_least_effect():
     x = rng.uniform(0, 1, 4000)
     slope = 4.0 * x + 0.3 * np.tanh((x - 0.5) / 0.08) + rng.normal(0, 0.5, 4000)
     candidate = Candidate.new("rp02", "input", x, ("rp02",))
-    rules = diagnosis.Rules(Settings(folds=5, seed=0, interactions=False), min_effect=1.0)
+    rules = fitting.Rules(Settings(folds=5, seed=0, interactions=False), min_effect=1.0)
     assert rules.best_fit(candidate, slope - slope.mean()).form.name == "linear"
     assert rules.fit_all([candidate], slope - slope.mean())["rp02"].form.name == "linear"
 
@@ -471,7 +470,7 @@ class Fixed(forms.Form):
 
 def _predicting(form_name, values, n_params, *, kind="input", score=-1.0, width=1.0, cv_mse=1.0):
     x = np.arange(4.0)
-    return diagnosis.Fit(
+    return fitting.Fit(
         Candidate.new("x", kind, x, ("x",)), Fixed(form_name, values, n_params, width), x, cv_mse, 4.0, score, 0, 0, 0
     )
 
@@ -485,9 +484,9 @@ def test_a_closed_form_that_matches_a_winning_trend_goes_ahead_of_it(match_at):
     others = [_predicting("linear", APART, 1), _predicting("quadratic", APART, 2), _predicting("step", APART, 2)]
     others[match_at - 1] = _predicting("sigmoid", SAME, 3)
     fits = [trend, *others]
-    reordered = diagnosis._named_form_first(fits, min_effect=0.5)
+    reordered = fitting._named_form_first(fits, min_effect=0.5)
     assert reordered == [others[match_at - 1], trend] + [fit for fit in others if fit is not others[match_at - 1]]
-    assert diagnosis._named_form_first([others[0], trend], min_effect=0.5) == [others[0], trend]  # no trend first
+    assert fitting._named_form_first([others[0], trend], min_effect=0.5) == [others[0], trend]  # no trend first
 
 
 @pytest.mark.parametrize("kind,moved", [("input", True), ("log", True), ("time", True), ("interaction", False)])
@@ -499,20 +498,18 @@ def test_a_sigmoid_wider_than_its_data_gives_way_to_a_simpler_form_that_predicts
     slope = _predicting("linear", SAME, 1, kind=kind)
     fits = [sigmoid, as_many, fewer_apart, slope]
     expected = [slope, sigmoid, as_many, fewer_apart] if moved else fits
-    assert diagnosis._unseen_saturation_last(fits, 0.5, sigmoid.candidate) == expected
-    assert diagnosis._unseen_saturation_last([sigmoid, slope], 0.5, sigmoid.candidate)[0] is (
-        slope if moved else sigmoid
-    )
+    assert fitting._unseen_saturation_last(fits, 0.5, sigmoid.candidate) == expected
+    assert fitting._unseen_saturation_last([sigmoid, slope], 0.5, sigmoid.candidate)[0] is (slope if moved else sigmoid)
 
 
 def test_a_sigmoid_whose_change_fits_inside_its_data_stays():
     narrow = _predicting("sigmoid", SAME, 3, width=3.0 / forms.SIGMOID_SPAN)  # 10-90% over exactly the span
     slope = _predicting("linear", SAME, 1)
-    assert diagnosis._unseen_saturation_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
-    assert diagnosis._unseen_saturation_last([], 0.5, narrow.candidate) == []
+    assert fitting._unseen_saturation_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
+    assert fitting._unseen_saturation_last([], 0.5, narrow.candidate) == []
 
 
-def _trend(**scores) -> diagnosis.Fit:
+def _trend(**scores) -> fitting.Fit:
     fit = _scored(**scores)
     fit.form = forms.Monotone()
     return fit
@@ -532,7 +529,7 @@ def test_a_named_form_that_took_a_trends_place_stands_only_where_it_is_significa
 ):
     named, trend = _scored("wear", p_value=named_p, score=-1.0), _trend(p_value=trend_p, score=trend_score)
     named.alternatives = [named, trend]
-    settled = diagnosis.Rules(Settings(alpha=0.01), n_tests=1, min_effect=0.5).settled(named)
+    settled = fitting.Rules(Settings(alpha=0.01), n_tests=1, min_effect=0.5).settled(named)
     assert settled.form.name == {"trend": "monotone", "named": "linear"}[stays]
     if stays == "trend":
         assert settled.alternatives[0] is settled and settled.alternatives[1] is named

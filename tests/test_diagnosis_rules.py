@@ -4,14 +4,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin import diagnosis, forms
-from hybridtwin.diagnosis import Candidate, Settings, best_fit
-from hybridtwin.profiles import Identity
+from hybridtwin import diagnosis
+from hybridtwin.diagnosis import Candidate, Settings, best_fit, forms, naming
+from hybridtwin.diagnosis import fits as fitting
+from hybridtwin.diagnosis.profiles import Identity
+from hybridtwin.diagnosis.selection import Selection
 
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
 
-class Lenient(diagnosis.Rules):
+class Lenient(fitting.Rules):
     """Rules under which every fit counts as significant: the rule under test decides alone."""
 
     def significant(self, fit) -> bool:
@@ -22,11 +24,11 @@ def _diagnose(frame, y, surrogate_std=0.2, inputs=()):
     return diagnosis.diagnose(frame, y, list(inputs), [], SETTINGS, surrogate_std=surrogate_std)
 
 
-def _term(name: str, kind: str, term, values=None) -> diagnosis.Fit:
+def _term(name: str, kind: str, term, values=None) -> fitting.Fit:
     """A fit whose term is ``term`` itself (on the candidate's ``values``, by default the term)."""
     term = np.asarray(term, float)
     values = term if values is None else values
-    return diagnosis.Fit(
+    return fitting.Fit(
         Candidate.new(name, kind, values, tuple(name.split("*"))), Identity(), term, 1.0, 1.0, -1.0, 0.0, 0.0, 0.0
     )
 
@@ -36,17 +38,17 @@ def test_an_id_is_handed_to_a_column_by_the_share_of_its_level_differences():
     coil = _term("coil", "group", y, values=np.array(list("aabb")))
     # between-coil sums of squares: 4 before, 4 * 0.4**2 = 0.64 once a term of 0.6 * y is taken out
     lube = _term("lube", "log", 0.6 * y)
-    assert diagnosis.proxy_share(coil, lube, y) == pytest.approx(0.84)
-    named, share = diagnosis.physical_cause(coil, [coil, lube], y, lambda fit: True)
+    assert naming.proxy_share(coil, lube, y) == pytest.approx(0.84)
+    named, share = naming.physical_cause(coil, [coil, lube], y, lambda fit: True)
     assert named is lube and share == pytest.approx(0.84)
     # a product of two columns needs more than half: one of dozens takes that up by chance
     pair = _term("rm*cushion", "interaction", 0.5 * y)  # share 1 - 0.5**2 = 0.75
     weak_pair = _term("rm*cushion", "interaction", 0.45 * y)  # share 0.6975
     weak_lube = _term("lube", "log", 0.45 * y)
-    assert diagnosis.physical_cause(coil, [coil, pair], y, lambda fit: True)[0] is pair
-    assert diagnosis.physical_cause(coil, [coil, weak_pair], y, lambda fit: True) == (coil, 0.0)
-    assert diagnosis.physical_cause(coil, [coil, weak_lube], y, lambda fit: True)[0] is weak_lube
-    assert diagnosis.physical_cause(
+    assert naming.physical_cause(coil, [coil, pair], y, lambda fit: True)[0] is pair
+    assert naming.physical_cause(coil, [coil, weak_pair], y, lambda fit: True) == (coil, 0.0)
+    assert naming.physical_cause(coil, [coil, weak_lube], y, lambda fit: True)[0] is weak_lube
+    assert naming.physical_cause(
         coil,
         [coil, _term("lube", "log", 0.25 * y)],
         y,  # share 0.4375
@@ -131,9 +133,9 @@ def test_a_closed_form_goes_ahead_of_a_monotone_trend_that_it_matches():
     fit = best_fit(Candidate.new("shim", "input", x, ("shim",)), y - y.mean(), SETTINGS)
     by_form = {alt.form.name: alt for alt in fit.alternatives}
     trend_first = [by_form["monotone"], by_form["linear"], by_form["step"]]
-    assert diagnosis._named_form_first(trend_first, min_effect=0.5)[0].form.name == "step"
+    assert fitting._named_form_first(trend_first, min_effect=0.5)[0].form.name == "step"
     # the linear fit does not predict the step within 0.5, so it is passed over
-    assert diagnosis._named_form_first([by_form["monotone"], by_form["linear"]], 0.5)[0].form.name == "monotone"
+    assert fitting._named_form_first([by_form["monotone"], by_form["linear"]], 0.5)[0].form.name == "monotone"
 
 
 def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
@@ -150,7 +152,7 @@ def test_a_simpler_column_that_predicts_the_same_is_named_with_its_own_form():
         ]
     }
     # the pair as the best-scoring candidate: the single column is simpler and predicts the same
-    chosen = diagnosis.prefer_simpler(fits["temp*other"], list(fits.values()), y, Lenient(SETTINGS, min_effect=2.0))
+    chosen = naming.prefer_simpler(fits["temp*other"], list(fits.values()), y, Lenient(SETTINGS, min_effect=2.0))
     assert chosen.candidate.name == "temp"
     assert chosen.form.name == fits["temp"].form.name == "sigmoid"
 
@@ -170,7 +172,7 @@ def test_time_gives_way_to_a_logged_quantity_only_where_it_predicts_no_better(dr
         for name, kind, values in [("time", "time", hours), ("strokes", "log", strokes)]
     ]
     best = min(fits, key=lambda fit: fit.score)
-    chosen = diagnosis.prefer_simpler(best, fits, y, Lenient(SETTINGS, min_effect=1.0))
+    chosen = naming.prefer_simpler(best, fits, y, Lenient(SETTINGS, min_effect=1.0))
     assert chosen.candidate.name == expected
 
 
@@ -190,10 +192,10 @@ def test_a_bend_both_columns_show_is_no_reason_to_name_time():
     time_bent = next(alt for alt in fits[0].alternatives if alt.form.name == "quadratic")
     strokes_line = next(alt for alt in fits[1].alternatives if alt.form.name == "linear")
     # the bend is real: time's parabola predicts significantly better than a line in strokes ...
-    assert diagnosis.better_held_out(time_bent, strokes_line, y, SETTINGS)
+    assert naming.better_held_out(time_bent, strokes_line, y, SETTINGS)
     # ... and strokes count by that line (it predicts the parabola within the least effect), but time
     # must also beat the strokes' own parabola, and does not
-    chosen = diagnosis.prefer_simpler(time_bent, fits, y, Lenient(SETTINGS, min_effect=1.0))
+    chosen = naming.prefer_simpler(time_bent, fits, y, Lenient(SETTINGS, min_effect=1.0))
     assert chosen.candidate.name == "strokes"
 
 
@@ -240,9 +242,9 @@ def test_a_cause_form_is_chosen_again_once_the_other_causes_are_in():
     quadratic = next(alt for alt in alone.alternatives if alt.form.name == "quadratic")
     models, means = forms.backfit([temp], ["quadratic"], y)
     left = y - models[0].predict(temp) + means[0]
-    selected = [quadratic, best_fit(by_name["strokes"], left - left.mean(), SETTINGS, 0.5)]
-    assert diagnosis._refine(selected, by_name, y, Lenient(SETTINGS, min_effect=0.5))
-    assert [(fit.candidate.name, fit.form.name) for fit in selected][0] == ("temp", "sigmoid")
+    selection = chosen(y, by_name, quadratic, best_fit(by_name["strokes"], left - left.mean(), SETTINGS, 0.5))
+    assert selection.refine()
+    assert [(fit.candidate.name, fit.form.name) for fit in selection.chosen][0] == ("temp", "sigmoid")
 
 
 def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
@@ -256,10 +258,14 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
         "temp": Candidate.new("temp", "input", temp, ("temp",)),
         "other": Candidate.new("other", "input", other, ("other",)),
     }
-    selected = [best_fit(pair, y, SETTINGS)]
-    assert diagnosis._refine(selected, by_name, y, Lenient(SETTINGS, min_effect=0.5))
-    assert selected[0].candidate.name == "temp" and selected[0].form.name == "sigmoid"
+    selection = chosen(y, by_name, best_fit(pair, y, SETTINGS))
+    assert selection.refine()
+    assert selection.chosen[0].candidate.name == "temp" and selection.chosen[0].form.name == "sigmoid"
     # a real interaction stays
     y2 = 0.2 * (temp - 35) * (other - 0.5) + rng.normal(0, 0.3, n)
-    selected = [best_fit(pair, y2 - y2.mean(), SETTINGS)]
-    assert not diagnosis._refine(selected, by_name, y2 - y2.mean(), Lenient(SETTINGS, min_effect=0.5))
+    assert not chosen(y2 - y2.mean(), by_name, best_fit(pair, y2 - y2.mean(), SETTINGS)).refine()
+
+
+def chosen(y, by_name, *fits) -> Selection:
+    """A selection that has chosen ``fits`` among the candidates of ``by_name``, with lenient rules."""
+    return Selection(y, list(by_name.values()), Lenient(SETTINGS, min_effect=0.5), {}, list(fits))

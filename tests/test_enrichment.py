@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from hybridtwin import enrichment
-from hybridtwin.config import ConfigError, check
-from hybridtwin.gate import KNNSupportGate
+from hybridtwin.io.config import ConfigError, check
+from hybridtwin.paper.gate import KNNSupportGate
 
 from .conftest import ROOT
 

@@ -8,17 +8,19 @@ import pandas as pd
 import pytest
 from sklearn.dummy import DummyRegressor
 
-from hybridtwin.causes import Cause, Term
 from hybridtwin.crossval import training_subset
-from hybridtwin.extension import (
+from hybridtwin.diagnosis.causes import Cause, Term
+from hybridtwin.diagnosis.extension import (
     DiscrepancyExtension,
+    Fitting,
+    Parts,
     evaluate,
     gain_table,
     guard,
-    guarded,
     keeps_out_of_support,
 )
 from hybridtwin.metrics import block_gains
+from hybridtwin.models.compose import guarded
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)
@@ -164,26 +166,13 @@ def evaluation_by_hand(
     residuals = pd.DataFrame(
         {"measured": measured, "residual_approx": residual, "pred_surrogate": np.full(n, 10.0), "in_support": inside}
     )
-    hybrid = pd.DataFrame({"pred_hybrid_oof": np.arange(float(n)) + 50})
+    hybrid = np.arange(float(n)) + 50
     matched = pd.DataFrame({"a": [3.5]})
     matched_cases = pd.DataFrame({"in_support": [matched_in_support], "pred_surrogate": [20.0], "pred_hybrid": [21.0]})
     splits = [(np.array([0, 1, 2]), np.array([3, 4, 5])), (np.array([3, 4, 5]), np.array([0, 1, 2]))]
     largest = partial(DummyRegressor, strategy="quantile", quantile=1.0)
-    inputs = ["a"]
-    return evaluate(
-        production,
-        residuals,
-        hybrid,
-        matched,
-        matched_cases,
-        inputs,
-        (),
-        largest,
-        splits,
-        choosing,
-        max_train_rows,
-        seed,
-    )
+    fitting = Fitting(("a",), largest, max_train_rows, seed)
+    return evaluate(Parts(production, residuals, hybrid), (), fitting, splits, choosing, (matched, matched_cases))
 
 
 def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
@@ -313,17 +302,11 @@ def test_evaluation_predicts_the_matched_cases_with_the_final_models():
 def test_evaluation_needs_one_prediction_per_matched_case():
     production = pd.DataFrame({"a": [1.0, 2.0]})
     residuals = pd.DataFrame({"residual_approx": [0.0, 1.0], "pred_surrogate": [1.0, 1.0], "in_support": [1, 1]})
+    residuals["measured"] = [1.0, 2.0]
+    matched = (pd.DataFrame({"a": [1.0]}), pd.DataFrame({"pred_surrogate": [1.0, 2.0], "pred_hybrid": [1.0, 2.0]}))
     with pytest.raises(ValueError, match="2 matched-case predictions for 1 matched cases"):
         evaluate(
-            production,
-            residuals,
-            pd.DataFrame({"pred_hybrid_oof": [1.0, 2.0]}),
-            pd.DataFrame({"a": [1.0]}),
-            pd.DataFrame({"pred_surrogate": [1.0, 2.0], "pred_hybrid": [1.0, 2.0]}),
-            ["a"],
-            (),
-            DummyRegressor,
-            [],
+            Parts(production, residuals, np.array([1.0, 2.0])), (), Fitting(("a",), DummyRegressor), [], None, matched
         )
 
 

@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
-from hybridtwin import forms
+from hybridtwin.diagnosis import forms
 
 X = np.linspace(0.0, 10.0, 101)
 
@@ -313,7 +313,7 @@ def test_backfitting_recovers_two_correlated_slopes():
 
 
 def test_a_causes_unit_comes_from_the_config_or_its_name_and_reaches_the_description():
-    from hybridtwin.causes import Cause, unit_of
+    from hybridtwin.diagnosis.causes import Cause, unit_of
 
     assert unit_of("die_temp_c") == "°C" and unit_of("shim20_mm") == "mm" and unit_of("rp02_mpa") == "MPa"
     assert unit_of("coil") == "" and unit_of("die_temp", {"die_temp": "°F"}) == "°F"

@@ -5,7 +5,8 @@ import pandas as pd
 import pytest
 from scipy.stats import qmc
 
-from hybridtwin import hybrid
+from hybridtwin.models import compose
+from hybridtwin.paper import hybrid
 
 
 class HalfPlaneGate:
@@ -93,5 +94,5 @@ def test_synthetic_frame_by_hand():
 
 def test_gated_hybrid_adds_the_residual_only_inside():
     np.testing.assert_allclose(
-        hybrid.gated(np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.5, 0.5]), np.array([1, 0, 1])), [1.5, 2.0, 3.5]
+        compose.gated(np.array([1.0, 2.0, 3.0]), np.array([1.5, 2.5, 3.5]), np.array([1, 0, 1])), [1.5, 2.0, 3.5]
     )

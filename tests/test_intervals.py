@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin import intervals
+from hybridtwin.answers import intervals
 
 LEVEL = 0.9
 Z90 = 1.6449  # two-sided 90% of a standard normal

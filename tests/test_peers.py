@@ -5,7 +5,11 @@ import pandas as pd
 import pytest
 from sklearn.gaussian_process import GaussianProcessRegressor
 
-from hybridtwin import crossval, intervals, peers
+from hybridtwin import crossval
+from hybridtwin.answers import intervals
+from hybridtwin.models import batches, peers, registry
+from hybridtwin.models.cokriging import CoKriging
+from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 
 COLUMNS = ["a", "b", "c"]
 
@@ -40,19 +44,19 @@ def _rmse(a, b):
 
 def test_gp_discrepancy_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
     residual = case["y_parts"] - simulator(case["parts"].to_numpy())
-    model = peers.GPDiscrepancy(n_hyper=200, n_fit=600).fit(case["parts"], residual)
+    model = GPDiscrepancy(n_hyper=200, n_fit=600).fit(case["parts"], residual)
     corrected = simulator(case["new"].to_numpy()) + model.predict(case["new"])
     assert _rmse(corrected, case["truth"]) < 0.1  # the noise is 0.3, the discrepancy up to 5
     assert _rmse(simulator(case["new"].to_numpy()), case["truth"]) > 2
-    again = peers.GPDiscrepancy.from_dict(model.to_dict())
+    again = GPDiscrepancy.from_dict(model.to_dict())
     assert np.array_equal(again.predict(case["new"]), model.predict(case["new"]))
     assert np.array_equal(again.predict(case["new"][COLUMNS[::-1]]), model.predict(case["new"]))  # by name
 
 
 def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
-    model = peers.CoKriging(n_high=200).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
+    model = CoKriging(n_high=200).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
     assert _rmse(model.predict(case["new"]), case["truth"]) < 0.3
-    again = peers.CoKriging.from_dict(model.to_dict())  # refitted with the stored hyperparameters, no search
+    again = CoKriging.from_dict(model.to_dict())  # refitted with the stored hyperparameters, no search
     assert np.array_equal(again.predict(case["new"]), model.predict(case["new"]))
     assert len(model.data_["X_high"]) == 200
 
@@ -112,7 +116,7 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     )
 
 
-@pytest.mark.parametrize("kind", peers.PEERS)
+@pytest.mark.parametrize("kind", registry.PEER_NAMES)
 def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(case, kind):
     doe, residuals = _peer_frames(case, np.arange(len(case["parts"])) % 3 != 0)
     settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150}
@@ -136,7 +140,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
             state = model.to_dict()
             high = {key: model.data_[key][train] for key in ("X_high", "y_high")}
             state["data"] = {**state["data"], **high}
-            expected = peers.CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
+            expected = CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
         np.testing.assert_allclose(honest[rows], expected, rtol=1e-9, atol=1e-9)
         assert not np.allclose(honest[rows], final[rows])  # the final model, which saw them, differs
     if kind == "gp_discrepancy":  # the rows that chose the hyperparameters are training rows, scored out-of-fold
@@ -148,21 +152,19 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):
     models = {
-        "gp_discrepancy": peers.GPDiscrepancy(n_hyper=100, n_fit=300).fit(case["parts"], case["y_parts"]),
-        "cokriging": peers.CoKriging(n_high=100).fit(
-            case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
-        ),
+        "gp_discrepancy": GPDiscrepancy(n_hyper=100, n_fit=300).fit(case["parts"], case["y_parts"]),
+        "cokriging": CoKriging(n_high=100).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]),
     }
     X, surrogate = case["parts"].iloc[:1250], np.arange(1250.0)  # 13 batches of 100 rows, the last of 50
     alone = peers.predictions_at(models, X, surrogate, n_jobs=1)
     shared = peers.predictions_at(models, X, surrogate, n_jobs=3)
-    for kind in peers.PEERS:
+    for kind in registry.PEER_NAMES:
         assert np.array_equal(shared[kind], alone[kind]), kind
     np.testing.assert_allclose(alone["gp_discrepancy"], surrogate + models["gp_discrepancy"].predict(X))
-    assert peers.BATCH_ROWS == 100
-    assert [(c.start, c.stop) for c in peers._chunks(1250, 2)] == [(0, 700), (700, 1250)]
-    assert [(c.start, c.stop) for c in peers._chunks(250, 5)] == [(0, 100), (100, 200), (200, 250)]
-    assert peers._chunks(0, 2) == []
+    assert batches.BATCH_ROWS == 100
+    assert [(c.start, c.stop) for c in batches.chunks(1250, 2)] == [(0, 700), (700, 1250)]
+    assert [(c.start, c.stop) for c in batches.chunks(250, 5)] == [(0, 100), (100, 200), (200, 250)]
+    assert batches.chunks(0, 2) == []
 
 
 def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
@@ -172,7 +174,7 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     test = (np.arange(n) // 100) % 2 == 1  # the odd blocks
     truth = rng.normal(0, 5, n)
     measured = truth + rng.normal(0, 1, n)
-    predictions = {model: truth + rng.normal(0, 1 + k, n) for k, model in enumerate(peers.COMPARED)}
+    predictions = {model: truth + rng.normal(0, 1 + k, n) for k, model in enumerate(registry.COMPARED)}
     predictions["gp_discrepancy"][::7] = np.nan  # a peer without an honest value on some parts
     predictions["hybrid_unfiltered"] = np.where(np.arange(n) % 5 == 0, np.nan, truth)  # not compared: its gaps
     # do not take rows from the others
@@ -182,9 +184,9 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     table = peers.comparison_table(
         measured, predictions, inside, test, matched_measured, matched, fits, truth=truth, noise=2.0
     ).set_index("model")
-    assert table.index.tolist() == list(peers.COMPARED)
+    assert table.index.tolist() == list(registry.COMPARED)
     scored = test & np.isfinite(predictions["gp_discrepancy"])  # the rows every model has a value on
-    for model in peers.COMPARED:
+    for model in registry.COMPARED:
         error, miss = measured - predictions[model], truth - predictions[model]
         row = table.loc[model]
         assert row["rmse_in_support_cv"] == pytest.approx(np.sqrt(np.mean(error[scored & inside] ** 2)))
@@ -203,11 +205,11 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     assert "hybrid_unfiltered" not in table.index
     without = {m: p for m, p in predictions.items() if m != "cokriging"}
     plain = peers.comparison_table(measured, without, inside, test, matched_measured, matched, fits)
-    assert "cokriging" not in plain["model"].tolist() and len(plain) == len(peers.COMPARED) - 1
+    assert "cokriging" not in plain["model"].tolist() and len(plain) == len(registry.COMPARED) - 1
     assert "rmse_truth_out_of_support" not in plain and not plain["evaluated_on"].str.contains("truth").any()
 
 
-@pytest.mark.parametrize("kind", peers.PEERS)
+@pytest.mark.parametrize("kind", registry.PEER_NAMES)
 def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, kind):
     import json
 
@@ -236,7 +238,7 @@ def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, ki
 def test_the_peers_threads_default_to_the_cores_this_process_may_use():
     import os
 
-    assert peers.available_cores() == len(os.sched_getaffinity(0))
+    assert batches.available_cores() == len(os.sched_getaffinity(0))
 
 
 def test_the_benchmarks_peer_sizes_are_the_workflows_defaults():
@@ -244,7 +246,7 @@ def test_the_benchmarks_peer_sizes_are_the_workflows_defaults():
 
     import yaml
 
-    from hybridtwin import config
+    from hybridtwin.io import config
 
     from .conftest import ROOT
 

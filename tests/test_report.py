@@ -3,7 +3,7 @@
 import pandas as pd
 import pytest
 
-from hybridtwin.report import diagnosis_markdown
+from hybridtwin.report.diagnosis_md import diagnosis_markdown
 
 CAUSES = pd.DataFrame(
     [
@@ -97,7 +97,7 @@ def test_a_sample_of_the_in_support_parts_is_stated():
 
 
 def test_report_pages_escape_names_give_human_headers_and_units():
-    from hybridtwin import pages
+    from hybridtwin.report import pages
 
     table = pd.DataFrame({"model": ["<b>hybrid</b>"], "rmse_truth_out_of_support": [1.23456], "n_test": [11823]})
     page = pages.table_page(table, "Table 5", "results/tables/table5.csv", "°C")

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from hybridtwin.crossval import splice_out_of_fold
-from hybridtwin.tables import dataset_summary, matched_summary, production_predictions, sensitivity_table
+from hybridtwin.paper.tables import dataset_summary, matched_summary, production_predictions, sensitivity_table
 
 
 def test_splice_puts_out_of_fold_values_at_the_training_rows():

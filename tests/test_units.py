@@ -13,7 +13,6 @@ import pandas as pd
 import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
-from hybridtwin import residual, tables
 from hybridtwin.crossval import (
     cross_validate,
     cv_table,
@@ -23,9 +22,10 @@ from hybridtwin.crossval import (
     splits_of,
     written_splits,
 )
-from hybridtwin.gate import DoEStandardizer, InputColumnsError, KNNSupportGate
 from hybridtwin.metrics import bias, mae, r2, rmse, scores
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin.paper import residual, tables
+from hybridtwin.paper.gate import DoEStandardizer, InputColumnsError, KNNSupportGate
+from hybridtwin.paper.surrogate import GPRSurrogate
 
 optuna.logging.set_verbosity(optuna.logging.WARNING)
 
@@ -441,7 +441,7 @@ def test_gpr_standardizes_with_training_rows_only(doe30):
 
 
 def test_gpr_predicts_a_large_table_in_chunks_with_the_same_numbers(doe30, monkeypatch):
-    from hybridtwin import surrogate
+    from hybridtwin.paper import surrogate
 
     X, y = doe30
     model = GPRSurrogate(n_restarts=0).fit(X, y)
@@ -717,7 +717,8 @@ def test_sensitivity_table_by_hand():
 
 
 def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
-    from hybridtwin.diagnosis import Candidate, Settings, value_folds
+    from hybridtwin.diagnosis import Candidate, Settings
+    from hybridtwin.diagnosis.fits import value_folds
 
     rng = np.random.default_rng(0)
     levels = rng.permutation(np.repeat(np.linspace(0.4, 0.7, 40), 50))  # 40 campaign settings, 50 parts each
@@ -735,7 +736,8 @@ def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
 @pytest.mark.parametrize("with_product, expected", [(False, "additive"), (True, "product")])
 def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(with_product, expected):
     from hybridtwin import diagnosis
-    from hybridtwin.diagnosis import Candidate, Settings, best_fit, is_significant
+    from hybridtwin.diagnosis import Candidate, Settings, best_fit
+    from hybridtwin.diagnosis.fits import is_significant
 
     rng = np.random.default_rng(1)
     a, b = rng.uniform(-1, 1, (2, 3000))
@@ -751,7 +753,7 @@ def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
     X = rng.random((200, 3))
     y = X[:, 0] + rng.normal(0, 0.1, 200)
     space = residual.search_space({"n_estimators": {"low": 10, "high": 20}})
-    with caplog.at_level(logging.INFO, logger="hybridtwin.residual"):
+    with caplog.at_level(logging.INFO, logger="hybridtwin.paper.residual"):
         residual.tune(X, y, n_trials=4, n_folds=3, seed=1, storage=str(tmp_path / "journal.log"), space=space)
     lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("tuning: trial")]
     assert [line.split(",")[1].split(":")[0].strip() for line in lines] == [f"{i} of 4" for i in range(1, 5)]
@@ -802,7 +804,7 @@ def _table_to_write():
 
 
 def test_csv_writer_with_a_decimal_comma_gives_pandas_float_format_text(tmp_path):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     frame = _table_to_write()
     files.write_csv(frame, tmp_path / "ours.csv", sep=";", decimal=",")
@@ -814,7 +816,7 @@ def test_csv_writer_with_a_decimal_comma_gives_pandas_float_format_text(tmp_path
 
 @pytest.mark.parametrize("sep", [",", ";"])
 def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp_path, sep):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     frame = _table_to_write()
     files.write_csv(frame, tmp_path / "ours.csv", sep=sep)
@@ -829,7 +831,7 @@ def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp
 
 
 def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path, monkeypatch):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     frame = pd.DataFrame(
         {
@@ -866,7 +868,7 @@ def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path,
     ],
 )
 def test_any_other_table_is_written_by_pandas(tmp_path, frame):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
     frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
@@ -875,7 +877,7 @@ def test_any_other_table_is_written_by_pandas(tmp_path, frame):
 
 @pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])
 def test_an_output_gets_the_mode_of_any_new_file(tmp_path, monkeypatch, mask):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     monkeypatch.setattr(files, "_UMASK", mask)
     files.write_json({"a": 1}, tmp_path / "out.json")
@@ -883,7 +885,7 @@ def test_an_output_gets_the_mode_of_any_new_file(tmp_path, monkeypatch, mask):
 
 
 def test_rounding_to_significant_digits_agrees_with_percent_g(tmp_path):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     rng = np.random.default_rng(0)
     values = np.concatenate(
@@ -941,7 +943,7 @@ def test_a_job_whose_workflow_is_gone_writes_nothing(tmp_path, monkeypatch):
     import subprocess
     import sys
 
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     gone = subprocess.Popen([sys.executable, "-c", "pass"])
     gone.wait()  # reaped: its pid no longer runs
@@ -958,7 +960,7 @@ def test_a_job_whose_workflow_is_gone_writes_nothing(tmp_path, monkeypatch):
 
 
 def test_a_cluster_job_on_another_machine_is_not_taken_for_an_orphan(tmp_path, monkeypatch):
-    from hybridtwin import files
+    from hybridtwin.io import files
 
     monkeypatch.setenv(files.OWNER_ENVIRONMENT, "999999999")  # no such process here
     monkeypatch.setenv(files.OWNER_ENVIRONMENT + "_HOST", "another-node")

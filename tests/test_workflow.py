@@ -23,10 +23,10 @@ import pytest
 import xgboost as xgb
 import yaml
 
-from hybridtwin import files
-from hybridtwin.extension import DiscrepancyExtension
-from hybridtwin.gate import KNNSupportGate
-from hybridtwin.surrogate import GPRSurrogate
+from hybridtwin.diagnosis.extension import DiscrepancyExtension
+from hybridtwin.io import files
+from hybridtwin.paper.gate import KNNSupportGate
+from hybridtwin.paper.surrogate import GPRSurrogate
 
 from .conftest import ROOT, run_command
 

@@ -5,7 +5,7 @@ way (other names, rhythms, confounding and numbers of causes); ``scenarios``: hi
 through the method in memory, for the tests and ``benchmarks/diagnosis_bank.py``.
 """
 
-from .plant import (
+from hybridtwin.demo.plant import (
     INPUT_NAMES,
     INPUTS,
     MATCHED_MEASURED,

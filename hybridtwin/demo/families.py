@@ -25,8 +25,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
-from ..gate import KNNSupportGate
-from . import plant as demo
+from hybridtwin.demo import plant as demo
+from hybridtwin.paper.gate import KNNSupportGate
 
 # canonical (demo) input name -> names a plant might use for it
 INPUT_VOCABULARY = {

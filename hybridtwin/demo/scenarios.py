@@ -16,33 +16,19 @@ import numpy as np
 import pandas as pd
 import xgboost as xgb
 
-from .. import config, diagnosis, residual
-from ..extension import fit_models, guard
-from ..gate import KNNSupportGate
-from ..intervals import calibration_rows
-from ..metrics import rmse
-from ..surrogate import GPRSurrogate, surrogate_latent_std
-from . import plant as demo
-from .families import Expected, PlantCase, draw_plant
-
-# A fixed, moderate XGBoost setting stands in for the tuned one to keep scenarios fast.
-SCENARIO_XGB = dict(
-    n_estimators=300,
-    max_depth=5,
-    learning_rate=0.05,
-    subsample=0.8,
-    colsample_bytree=0.8,
-    min_child_weight=5,
-    gamma=0.5,
-    reg_alpha=0.1,
-    reg_lambda=1.0,
-)
+from hybridtwin import diagnosis
+from hybridtwin.demo import harness
+from hybridtwin.demo import plant as demo
+from hybridtwin.demo.families import Expected, PlantCase, draw_plant
+from hybridtwin.io import config as configuration
+from hybridtwin.metrics import rmse
+from hybridtwin.models import registry
+from hybridtwin.models.registry import EXTENDED, EXTENDED_HYBRID, HYBRID
+from hybridtwin.paper import residual
+from hybridtwin.paper.gate import KNNSupportGate
 
 # plants whose support holds fewer parts are redrawn: the method needs data to learn from
 MIN_IN_SUPPORT = 0.07
-
-# the workflow's default intervals.blocks: even blocks of consecutive parts choose, odd ones score
-BLOCKS = int(config.schema()["properties"]["intervals"]["properties"]["blocks"]["default"])
 
 KINDS = ("temperature", "shim_step", "stroke_drift", "coil_offset", "rp02_slope", "interaction", "none")
 
@@ -329,48 +315,18 @@ def run_scenario(
 def evaluate(
     case: PlantCase, seed: int, n_jobs: int = 1, settings: diagnosis.Settings | None = None, generator: str = "demo"
 ) -> Outcome:
-    """The method on a generated plant: gate, surrogate, diagnosis, hybrid and extension; scored out of support."""
-    inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
-    inside = KNNSupportGate().fit(doe[inputs]).predict(production[inputs])
-    surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
-    approximate = residual.approximate_residuals(surrogate, production, inputs, target)
-    mean, std, r = (approximate[c].to_numpy(float) for c in ("pred_surrogate", "pred_surrogate_std", "residual_approx"))
-    settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
+    """The method on a generated plant: gate, surrogate, diagnosis, hybrid and extension; scored out of support
+    (on the odd blocks: the even ones chose whether the extended hybrid stands there, as in the workflow)."""
+    run = harness.Run.of(case, seed, n_jobs)
     start = time.perf_counter()
-    result = diagnosis.diagnose(
-        production.loc[inside].drop(columns=[target]),
-        r[inside],
-        inputs,
-        [target],
-        settings,
-        surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_),
-    )
+    result = run.diagnose(settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs))
     seconds = time.perf_counter() - start
-    X = production[inputs].to_numpy(float)
-    rows = np.flatnonzero(inside)
-
-    def make_xgb():
-        return residual.make_model(SCENARIO_XGB, seed, n_jobs)
-
-    hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], result.terms, make_xgb)
-    extended = mean + models.extension.predict(production)
-    measured, truth = production[target].to_numpy(float), case.truth
-    # as the workflow does: the even blocks choose whether the extended hybrid stands out of the support,
-    # the odd ones score
-    choosing = calibration_rows(len(production), BLOCKS)
-    extended_hybrid, stands = guard(measured, extended + models.remainder.predict(X), hybrid, inside, choosing)
-    outside = ~inside & ~choosing
+    models, final = run.extended(result.terms)
+    inside, hybrid = run.inside, run.hybrid
+    measured, truth = case.production[case.target].to_numpy(float), case.truth
+    outside = ~inside & ~run.choosing
+    extended, extended_hybrid = final[EXTENDED.name], final[EXTENDED_HYBRID.name]
     top = result.table.iloc[0]
-    chosen = tuple(
-        Chosen(
-            f.candidate.name,
-            f.form.name,
-            _monotone(f.form.predict(f.candidate.values), f.candidate.values),
-            tuple(result.aliases.get(f.candidate.name, ())),
-        )
-        for f in result.selected
-    )
     return Outcome(
         case.family,
         case.description,
@@ -388,11 +344,24 @@ def evaluate(
         rmse(truth[outside], hybrid[outside]),
         case.noise,
         seconds,
-        chosen,
-        shap_top_column(production.loc[inside].drop(columns=[target]), r[inside], seed, n_jobs),
+        chosen_causes(result),
+        shap_top_column(run.production.loc[inside].drop(columns=[case.target]), run.residual[inside], seed, n_jobs),
         generator,
         case.confounding,
-        stands,
+        models.out_of_support,
+    )
+
+
+def chosen_causes(result: diagnosis.Diagnosis) -> tuple[Chosen, ...]:
+    """The diagnosis' chosen causes as the scenarios judge them."""
+    return tuple(
+        Chosen(
+            f.candidate.name,
+            f.form.name,
+            _monotone(f.form.predict(f.candidate.values), f.candidate.values),
+            tuple(result.aliases.get(f.candidate.name, ())),
+        )
+        for f in result.selected
     )
 
 
@@ -404,7 +373,7 @@ def shap_top_column(frame, residual_values, seed: int, n_jobs: int = 1) -> str:
     """
     candidates, _ = diagnosis.build_candidates(frame, [], [], diagnosis.Settings(interactions=False, max_levels=10**9))
     table = pd.DataFrame({c.name: pd.Categorical(c.values) if c.kind == "group" else c.values for c in candidates})
-    model = residual.make_model(SCENARIO_XGB, seed, n_jobs).set_params(enable_categorical=True)
+    model = residual.make_model(harness.SCENARIO_XGB, seed, n_jobs).set_params(enable_categorical=True)
     model.fit(table, residual_values)
     contributions = model.get_booster().predict(xgb.DMatrix(table, enable_categorical=True), pred_contribs=True)
     return str(table.columns[int(np.argmax(np.abs(contributions[:, :-1]).mean(axis=0)))])
@@ -420,7 +389,7 @@ def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
 
 
 # models compared by benchmarks/peer_bank.py, out of support against the truth
-COMPARED_MODELS = ("hybrid", "extended_hybrid", "gp_discrepancy", "cokriging", "stack", "recommended")
+COMPARED_MODELS = (HYBRID.name, EXTENDED_HYBRID.name, *registry.PEER_NAMES, registry.STACK.name, registry.RECOMMENDED)
 
 
 def truth_scores(truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray) -> dict[str, float]:
@@ -441,85 +410,26 @@ def compare_models(
     n_jobs: int = 1,
     settings: diagnosis.Settings | None = None,
     peer_settings: dict | None = None,
-    folds: int = 5,
-    level: float = 0.9,
 ) -> dict:
-    """The paper's hybrid, the extension, the two peers, their stack and the recommended model on one plant.
+    """The paper's hybrid, the extension, the peers, their stack and the recommended model on one plant.
 
-    As the workflow does it: every model fitted on the DoE and the in-support parts; honest predictions
-    (out-of-fold on the parts a model trained on, a peer's too); the recommended model and the stack
-    chosen on the even blocks of consecutive parts; every score on the odd blocks. Returns, per model,
-    the truth-RMSE out of and in the support on those rows.
+    The workflow's steps (:class:`harness.Run`): every model fitted on the DoE and the in-support parts; honest
+    predictions (out-of-fold on the parts a model trained on, a peer's too); the recommended model and the stack
+    chosen on the even blocks of consecutive parts; every score on the odd blocks. Returns, per model, the
+    truth-RMSE out of and in the support on those rows.
     """
-    from .. import intervals, peers
-    from ..crossval import cross_validate, fold_ids, splits_of
-    from ..extension import cross_validated
+    from hybridtwin.answers.intervals import recommended_prediction
 
-    inputs, target, production, doe = case.inputs, case.target, case.production, case.doe
-    gate = KNNSupportGate().fit(doe[inputs])
-    distance = gate.distance(production[inputs])
-    inside = gate.within(distance)
-    surrogate = GPRSurrogate(n_restarts=1, random_state=seed).fit(doe[inputs], doe[target])
-    residuals = residual.approximate_residuals(surrogate, production, inputs, target)
-    residuals["in_support"] = inside
-    measured, mean, std, r = (
-        residuals[c].to_numpy(float) for c in ("measured", "pred_surrogate", "pred_surrogate_std", "residual_approx")
-    )
-    settings = settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs)
-    result = diagnosis.diagnose(
-        production.loc[inside].drop(columns=[target]),
-        r[inside],
-        inputs,
-        [target],
-        settings,
-        surrogate_std=surrogate_latent_std(std[inside], surrogate.noise_std_),
-    )
-    X = production[inputs].to_numpy(float)
-    rows = np.flatnonzero(inside)
-
-    def make_xgb():
-        return residual.make_model(SCENARIO_XGB, seed, n_jobs)
-
-    causes = result.terms
-    # the workflow's split: rule residual_cv scores the hybrid on it, and rule model_extension reads it
-    cv_seed = residual.evaluation_seed(seed)
-    splits = splits_of(fold_ids(len(rows), folds, cv_seed))
-    hybrid = mean + make_xgb().fit(X[rows], r[rows]).predict(X)
-    _, hybrid_oof = cross_validate(make_xgb(), X[rows], r[rows], folds, cv_seed)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], causes, make_xgb)
-    extended = mean + models.extension.predict(production)
-    choosing = calibration_rows(len(production), BLOCKS)
-    extended_hybrid, _ = guard(measured, extended + models.remainder.predict(X), hybrid, inside, choosing)
-    oof_extended, oof_extended_hybrid = cross_validated(
-        production.iloc[rows], X[rows], r[rows], causes, make_xgb, splits
-    )
-    frame = pd.DataFrame(
-        {
-            "in_support": inside,
-            "knn_distance": distance,
-            "measured": measured,
-            "pred_surrogate": mean,
-            "pred_hybrid_oof": hybrid,
-            "pred_extended_oof": extended,
-            "pred_extended_hybrid_oof": extended_hybrid,
-        }
-    )
-    frame.loc[rows, "pred_hybrid_oof"] = mean[rows] + hybrid_oof
-    frame.loc[rows, "pred_extended_oof"] = mean[rows] + oof_extended
-    frame.loc[rows, "pred_extended_hybrid_oof"] = mean[rows] + oof_extended_hybrid
-    peer_settings = {**config.section_defaults("peers"), **(peer_settings or {})}
-    for kind in peers.PEERS:
-        fit = peers.fit_peer(kind, doe, production, residuals, inputs, target, peer_settings, seed, folds)
-        frame[f"pred_{kind}_oof"] = fit.production[f"pred_{kind}_oof"].to_numpy(float)
-    doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in inputs}
-    calibrated = intervals.calibrate(
-        frame, production[inputs], doe_range, gate.threshold_, level, 4, BLOCKS, seed, case.truth
-    )
+    peers = {**configuration.section_defaults("peers"), **(peer_settings or {})}
+    run = harness.Run.of(case, seed, n_jobs, peers=peers)
+    result = run.diagnose(settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs))
+    calibrated = run.calibrate(run.predictions(result.terms), case.truth)
     honest = dict(calibrated.honest)
-    honest["recommended"] = intervals.recommended_prediction(
+    level = run.config["intervals"]["level"]
+    honest[registry.RECOMMENDED] = recommended_prediction(
         calibrated.intervals, calibrated.honest, calibrated.region, level
     )["pred_recommended"].to_numpy()
-    scored = truth_scores(case.truth, honest, ~calibrated.calibration, inside)
+    scored = truth_scores(case.truth, honest, ~calibrated.calibration, run.inside)
     scored["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
-    scored["n_in_support"] = int(inside.sum())
+    scored["n_in_support"] = int(run.inside.sum())
     return scored

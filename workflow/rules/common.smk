@@ -4,7 +4,9 @@ import os
 import socket
 from pathlib import Path
 
-# the jobs' outputs are renamed into place only while this run lives (hybridtwin.files.check_owner):
+from hybridtwin.models import registry  # standard library only
+
+# the jobs' outputs are renamed into place only while this run lives (hybridtwin.io.files.check_owner):
 # a job orphaned by a killed run cannot overwrite the outputs of a later one
 os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID", str(os.getpid()))  # a job's own re-parse keeps the run's
 os.environ.setdefault("HYBRIDTWIN_WORKFLOW_PID_HOST", socket.gethostname())
@@ -34,13 +36,26 @@ PACKAGE_CODE = hashlib.sha256(
     b"".join(path.read_bytes() for path in sorted((Path(workflow.main_snakefile).parent / "hybridtwin").rglob("*.py")))
 ).hexdigest()[:16]
 
-PEERS = ["gp_discrepancy", "cokriging"]
+PEERS = list(registry.PEER_NAMES)
 # everything a run writes lives under one folder, so two plants (or two panels) can run side by side
 RESULTS = config["results_dir"].rstrip("/")
 TABLES = f"{RESULTS}/tables"
 FIGURES = f"{RESULTS}/figures"
 MODELS = f"{RESULTS}/models"
 DEMO = f"{RESULTS}/demo"
+
+
+# the run's settings each rule's step uses (hybridtwin.pipeline.Spec): the inputs and what else it names
+SPEC = {"inputs": INPUTS, "target": TARGET, "seed": SEED, "folds": FOLDS, "max_train_rows": MAX_TRAIN_ROWS}
+
+
+def spec(*keys):
+    return {key: SPEC[key] for key in ("inputs", *keys)}
+
+
+def model_file(part):
+    """A stored model of the run (registry.FILES: surrogate, gate, residual_filtered, a peer's name, ...)."""
+    return f"{MODELS}/{registry.FILES[part]}"
 
 
 CHECKED = {role: f"{RESULTS}/data/{role}.csv" for role in ("doe", "production", "matched")}

@@ -69,7 +69,7 @@ rule support_gate:
         production=CHECKED["production"],
         standardization=rules.standardize.output.model,
     output:
-        model=f"{MODELS}/support_gate.json",
+        model=model_file("gate"),
         production=f"{RESULTS}/support/production_support.csv",
         figure=report(
             f"{FIGURES}/support_distances.png",
@@ -84,7 +84,7 @@ rule support_gate:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
+        spec=spec(),
         k=config["gate"]["k"],
         percentile=config["gate"]["percentile"],
         paths=config["data"],

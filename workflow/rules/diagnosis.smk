@@ -25,10 +25,7 @@ rule diagnose:
     threads: 2
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
-        folds=FOLDS,
-        seed=SEED,
+        spec=spec("target", "seed", "folds"),
         settings={k: v for k, v in config["diagnosis"].items() if k != "n_figures"},
         unit=UNIT,
         input_units=config["units"]["inputs"],
@@ -49,8 +46,8 @@ rule model_extension:
         best=rules.tune_residual.output.best,
     output:
         table=f"{TABLES}/model_extension.csv",
-        extension=f"{MODELS}/extension.json",
-        remainder=f"{MODELS}/residual_xgb_extended.json",
+        extension=model_file("extension"),
+        remainder=model_file("remainder"),
         predictions=f"{RESULTS}/predictions/extension.csv",
         matched_predictions=f"{RESULTS}/predictions/matched_models.csv",
     log:
@@ -62,11 +59,9 @@ rule model_extension:
     threads: 2
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        seed=SEED,
+        spec=spec("seed", "max_train_rows"),
         matched_measured=config["columns"]["matched_measured"],
         blocks=config["intervals"]["blocks"],
-        max_train_rows=MAX_TRAIN_ROWS,
     script:
         "../../scripts/model_extension.py"
 

@@ -6,8 +6,8 @@ rule predict_production:
         production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
         support=rules.support_gate.output.production,
-        filtered_model=f"{MODELS}/residual_xgb_filtered.json",
-        unfiltered_model=f"{MODELS}/residual_xgb_unfiltered.json",
+        filtered_model=model_file("residual_filtered"),
+        unfiltered_model=model_file("residual_unfiltered"),
         filtered_oof=f"{RESULTS}/residuals/oof_filtered.csv",
         unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.csv",
     output:
@@ -20,7 +20,7 @@ rule predict_production:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
+        spec=spec(),
     script:
         "../../scripts/predict_production.py"
 
@@ -30,7 +30,7 @@ rule matched_check:
         matched=CHECKED["matched"],
         support=rules.matched_support.output.support,
         surrogate=rules.surrogate_fit.output.model,
-        model=f"{MODELS}/residual_xgb_filtered.json",
+        model=model_file("residual_filtered"),
         predictions=rules.predict_production.output.predictions,
     output:
         summary=f"{TABLES}/matched_check.csv",
@@ -100,7 +100,7 @@ rule synthetic:
         doe=CHECKED["doe"],
         gate=rules.support_gate.output.model,
         surrogate=rules.surrogate_fit.output.model,
-        model=f"{MODELS}/residual_xgb_filtered.json",
+        model=model_file("residual_filtered"),
     output:
         doe=f"{RESULTS}/synthetic/doe_corrected.csv",
         support=f"{RESULTS}/synthetic/support_samples.csv",

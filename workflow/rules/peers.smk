@@ -7,7 +7,7 @@ rule peer:
         production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
     output:
-        model=f"{MODELS}/peer_{{peer}}.json",
+        model=f"{MODELS}/{registry.PEER_FILE.format(name='{peer}')}",
         predictions=f"{RESULTS}/peers/{{peer}}_production.csv",
         summary=f"{RESULTS}/peers/{{peer}}.json",
     log:
@@ -15,15 +15,12 @@ rule peer:
     benchmark:
         benchmark_of("peer", "_{peer}")
     wildcard_constraints:
-        peer="gp_discrepancy|cokriging",
+        peer="|".join(PEERS),
     conda:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
-        seed=SEED,
-        folds=config["cv"]["folds"],
+        spec=spec("target", "seed", "folds"),
         settings=config["peers"],
     script:
         "../../scripts/peer.py"

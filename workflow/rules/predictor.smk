@@ -4,6 +4,7 @@
 rule prediction_intervals:
     input:
         unpack(demo_truth_inputs),
+        **{f"peer_{name}": model_file(name) for name in PEERS},
         predictions=rules.production_predictions.output.predictions,
         production=CHECKED["production"],
         doe=CHECKED["doe"],
@@ -11,7 +12,6 @@ rule prediction_intervals:
         matched=CHECKED["matched"],
         matched_models=rules.model_extension.output.matched_predictions,
         matched_cases=rules.matched_check.output.cases,
-        peer_models=expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS),
         surrogate=rules.surrogate_fit.output.model,
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
@@ -31,12 +31,11 @@ rule prediction_intervals:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
+        spec=spec("target", "seed"),
+        peers=PEERS,
         unit=UNIT,
         csv=config["csv"],
         matched_measured=config["columns"]["matched_measured"],
-        seed=SEED,
         settings=config["intervals"],
     script:
         "../../scripts/prediction_intervals.py"
@@ -49,11 +48,11 @@ rule whatif:
         models=[
             rules.surrogate_fit.output.model,
             rules.support_gate.output.model,
-            f"{MODELS}/residual_xgb_filtered.json",
-            f"{MODELS}/residual_xgb_unfiltered.json",
+            model_file("residual_filtered"),
+            model_file("residual_unfiltered"),
             rules.model_extension.output.extension,
             rules.model_extension.output.remainder,
-            expand(f"{MODELS}/peer_{{peer}}.json", peer=PEERS),
+            [model_file(name) for name in PEERS],
         ],
     output:
         predictions=f"{RESULTS}/predictions/whatif.csv",

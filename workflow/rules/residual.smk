@@ -79,10 +79,7 @@ rule residual_cv:
     threads: 2
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        folds=FOLDS,
-        seed=SEED,
-        max_train_rows=MAX_TRAIN_ROWS,
+        spec=spec("seed", "folds", "max_train_rows"),
     script:
         "../../scripts/residual_cv.py"
 
@@ -110,7 +107,7 @@ rule residual_fit:
         residuals=rules.residuals.output.residuals,
         best=rules.tune_residual.output.best,
     output:
-        model=f"{MODELS}/residual_xgb_{{training}}.json",
+        model=f"{MODELS}/{registry.RESIDUAL_FILE}",
     log:
         log_of("residual_fit", "_{training}"),
     benchmark:
@@ -122,8 +119,6 @@ rule residual_fit:
     threads: 2
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        seed=SEED,
-        max_train_rows=MAX_TRAIN_ROWS,
+        spec=spec("seed", "max_train_rows"),
     script:
         "../../scripts/residual_fit.py"

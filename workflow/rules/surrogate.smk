@@ -32,7 +32,7 @@ rule surrogate_fit:
     input:
         doe=CHECKED["doe"],
     output:
-        model=f"{MODELS}/surrogate_gpr.json",
+        model=model_file("surrogate"),
     log:
         log_of("surrogate_fit"),
     benchmark:
@@ -41,9 +41,7 @@ rule surrogate_fit:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
-        seed=SEED,
+        spec=spec("target", "seed"),
         n_restarts=config["surrogate"]["n_restarts"],
     script:
         "../../scripts/surrogate_fit.py"
@@ -64,7 +62,6 @@ rule residuals:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
-        target=TARGET,
+        spec=spec("target"),
     script:
         "../../scripts/residuals.py"

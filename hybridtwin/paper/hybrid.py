@@ -6,10 +6,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
-
-def gated(surrogate: np.ndarray, residual: np.ndarray, in_support: np.ndarray) -> np.ndarray:
-    """Hybrid inside the support, surrogate alone outside (the residual gated to zero)."""
-    return np.asarray(surrogate) + np.where(np.asarray(in_support, bool), residual, 0.0)
+from hybridtwin.models import compose
+from hybridtwin.models.registry import HYBRID, HYBRID_GATED, SURROGATE
 
 
 def sample_in_support(gate, bounds_low, bounds_high, n_samples: int, seed: int, max_draws: int = 200_000):
@@ -41,8 +39,9 @@ def synthetic_frame(X: np.ndarray, inputs, surrogate, residual_model, gate) -> p
     frame = pd.DataFrame(X, columns=list(inputs))
     frame["in_support"] = inside
     frame["knn_distance"] = gate.distance(X)
-    frame["pred_surrogate"] = surrogate_pred
+    predicted = compose.hybrids(surrogate_pred, residual_pred, inside)
+    frame[SURROGATE.column] = surrogate_pred
     frame["pred_residual"] = residual_pred
-    frame["pred_hybrid"] = surrogate_pred + residual_pred
-    frame["pred_hybrid_gated"] = gated(surrogate_pred, residual_pred, inside)
+    frame[HYBRID.column] = predicted[HYBRID.name]
+    frame[HYBRID_GATED.column] = predicted[HYBRID_GATED.name]
     return frame

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from . import forms
-from .diagnosis import Diagnosis
-from .forms import fit_form
+from hybridtwin.diagnosis import forms
+from hybridtwin.diagnosis.forms import fit_form
+from hybridtwin.diagnosis.selection import Diagnosis
 
 
 def partial_residual(result: Diagnosis, y: np.ndarray, index: int) -> np.ndarray:

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .errors import InputError, other_csvs
+from hybridtwin.io.errors import InputError, other_csvs
 
 
 class DataWarning(UserWarning):

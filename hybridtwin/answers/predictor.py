@@ -19,25 +19,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import data, files, intervals, peers, residual
-from .extension import DiscrepancyExtension, guarded
-from .gate import KNNSupportGate, input_names
-from .surrogate import GPRSurrogate
+from hybridtwin.answers import intervals
+from hybridtwin.diagnosis.extension import Models
+from hybridtwin.io import data, files
+from hybridtwin.models import compose, peers, registry
+from hybridtwin.models.batches import available_cores
+from hybridtwin.paper import residual
+from hybridtwin.paper.gate import KNNSupportGate, input_names
+from hybridtwin.paper.surrogate import GPRSurrogate
 
 log = logging.getLogger(__name__)
 
 MANIFEST = "predictor.json"
-# model files of a workflow run, under its models folder
-FILES = {
-    "surrogate": "surrogate_gpr.json",
-    "gate": "support_gate.json",
-    "residual_filtered": "residual_xgb_filtered.json",
-    "residual_unfiltered": "residual_xgb_unfiltered.json",
-    "extension": "extension.json",
-    "remainder": "residual_xgb_extended.json",
-    "gp_discrepancy": "peer_gp_discrepancy.json",
-    "cokriging": "peer_cokriging.json",
-}
 # columns added to each row, in this order (a contract read by outside tools); after outside_doe_range come
 # beyond_<input> per input: how far the row lies beyond the DoE's range in that input's unit (0 inside)
 ANSWER_COLUMNS = (
@@ -46,16 +39,9 @@ ANSWER_COLUMNS = (
     "outside_doe_range",
     "in_domain",
     "region",
-    "pred_surrogate",
-    "pred_surrogate_std",
-    "pred_hybrid_gated",
-    "pred_hybrid",
-    "pred_hybrid_unfiltered",
-    "pred_extended",
-    "pred_extended_hybrid",
-    "pred_gp_discrepancy",
-    "pred_cokriging",
-    "pred_stack",
+    registry.SURROGATE.column,
+    f"{registry.SURROGATE.column}_std",
+    *(model.column for model in registry.MODELS if model is not registry.SURROGATE),
     "pred_recommended",
     "recommended_model",
     "pred_lower",
@@ -83,7 +69,7 @@ def manifest(
         "unit": unit,
         "csv": {"sep": csv.get("sep", ","), "decimal": csv.get("decimal", ".")},
         "doe_range": {name: [float(doe[name].min()), float(doe[name].max())] for name in inputs},
-        "files": FILES,
+        "files": registry.FILES,
         "level": level,
         "threshold": threshold,
         "intervals": region_intervals.to_dict(),
@@ -109,9 +95,7 @@ class Predictor:
     gate: KNNSupportGate
     residual_filtered: object
     residual_unfiltered: object
-    extension: DiscrepancyExtension
-    remainder: object
-    extension_out_of_support: bool  # whether the extended hybrid stands out of the support (the guard's choice)
+    extension: Models  # the named causes' terms, the remainder model and the guard's choice
     intervals: intervals.RegionIntervals
     level: float
     peers: dict  # kind -> fitted peer (GP discrepancy, co-kriging)
@@ -145,7 +129,6 @@ class Predictor:
         model_files = {key: folder / name for key, name in spec["files"].items()}
         surrogate = GPRSurrogate.from_dict(files.read_json(model_files["surrogate"]))
         gate = KNNSupportGate.from_dict(files.read_json(model_files["gate"]))
-        extension = files.read_json(model_files["extension"])
         for name, model in (("surrogate", surrogate), ("gate", gate)):
             if input_names(model) is not None and input_names(model) != inputs:
                 raise ValueError(
@@ -161,13 +144,15 @@ class Predictor:
             gate=gate,
             residual_filtered=_xgb(model_files["residual_filtered"], inputs),
             residual_unfiltered=_xgb(model_files["residual_unfiltered"], inputs),
-            extension=DiscrepancyExtension.from_dict(extension),
-            remainder=_xgb(model_files["remainder"], inputs),
-            extension_out_of_support=bool(extension["extended_hybrid_out_of_support"]),
+            extension=Models.from_stored(
+                files.read_json(model_files["extension"]), _xgb(model_files["remainder"], inputs)
+            ),
             intervals=intervals.RegionIntervals.from_dict(spec["intervals"]),
             level=float(spec["level"]),
             peers={
-                kind: peers.load_peer(kind, files.read_json(model_files[kind])) for kind in peers.PEERS if with_peers
+                name: peers.load_peer(name, files.read_json(model_files[name]))
+                for name in registry.PEER_NAMES
+                if with_peers
             },
         )
 
@@ -197,30 +182,31 @@ class Predictor:
         surrogate, std = self.surrogate.predict(X, return_std=True)
         inside = self.gate.predict(X) if in_support is None else np.asarray(in_support, bool)
         filtered = self.residual_filtered.predict(X)
-        lacking = sorted(self.extension.columns - set(frame.columns))
+        out = compose.hybrids(surrogate, filtered, inside, self.residual_unfiltered.predict(X))
+        lacking = sorted(self.extension.extension.columns - set(frame.columns))
         if lacking:
             log.warning(
                 "no column %s in the table: the extension (whose causes need it) gives no prediction",
                 ", ".join(lacking),
             )
-            extended = np.full(len(frame), np.nan)
+            extension = np.full(len(frame), np.nan)
         else:
-            extended = surrogate + self.extension.predict(frame)
-        out = {
-            "surrogate": surrogate,
-            "surrogate_std": std,
-            "hybrid_gated": np.where(inside, surrogate + filtered, surrogate),
-            "hybrid": surrogate + filtered,
-            "hybrid_unfiltered": surrogate + self.residual_unfiltered.predict(X),
-            "extended": extended,
-            "extended_hybrid": guarded(
-                extended + self.remainder.predict(X), surrogate + filtered, inside, self.extension_out_of_support
-            ),
-        }
+            extension = self.extension.extension.predict(frame)
         out.update(
-            peers.predictions_at(self.peers, X, surrogate, n_jobs or peers.available_cores())
+            compose.extended(
+                surrogate,
+                extension,
+                self.extension.remainder.predict(X),
+                out[registry.HYBRID.name],
+                inside,
+                self.extension.out_of_support,
+            )
+        )
+        out[f"{registry.SURROGATE.name}_std"] = std
+        out.update(
+            peers.predictions_at(self.peers, X, surrogate, n_jobs or available_cores())
             if with_peers
-            else {kind: np.full(len(X), np.nan) for kind in peers.PEERS}
+            else {name: np.full(len(X), np.nan) for name in registry.PEER_NAMES}
         )
         return out
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import jsonschema
 import yaml
 
-from .errors import InputError, other_csvs
+from hybridtwin.io.errors import InputError, other_csvs
 
 SCHEMA_PATH = Path(__file__).with_name("config.schema.yaml")
 

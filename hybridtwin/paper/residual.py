@@ -19,7 +19,7 @@ import pandas as pd
 import xgboost as xgb
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
-from .crossval import cross_validate, training_subset
+from hybridtwin.crossval import cross_validate, training_subset
 
 log = logging.getLogger(__name__)
 
@@ -291,7 +291,7 @@ def save_model(model, path, inputs=None) -> None:
     ``inputs`` names the columns the model was fitted on, in order; the file
     carries them, so a table given later is matched by name.
     """
-    from .files import atomic_path
+    from hybridtwin.io.files import atomic_path
 
     model = fitted_estimator(model)
     if inputs is not None:
@@ -376,6 +376,10 @@ def approximate_residuals(surrogate, production: pd.DataFrame, inputs, target: s
 def evaluation_seed(seed: int) -> int:
     """Seed of the CV split that scores the tuned model: not the split the tuning chose on."""
     return seed + 1
+
+
+# the residual models' training sets: the in-support parts (the paper's) and every part (Table 5's comparison)
+TRAINING_SETS = ("filtered", "unfiltered")
 
 
 def training_rows(in_support, training: str) -> np.ndarray:

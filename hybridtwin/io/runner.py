@@ -11,7 +11,7 @@ import logging
 import sys
 import warnings
 
-from .data import InputError
+from hybridtwin.io.data import InputError
 
 
 def run(snakemake, main) -> None:
@@ -37,3 +37,22 @@ def run(snakemake, main) -> None:
     except Exception:
         logging.getLogger("hybridtwin").exception("rule failed")
         raise
+
+
+def spec_of(snakemake):
+    """The run's settings the rule's step uses (``params.spec``: the inputs and what else it needs), with the
+    rule's threads."""
+    from hybridtwin.pipeline import Spec
+
+    return Spec(**snakemake.params.spec, n_jobs=snakemake.threads)
+
+
+def demo_truth(inputs) -> tuple:
+    """The demo's noise-free truth per production part and its noise level, when the rule's ``inputs`` have
+    them (a run on the demo plant); (None, None) otherwise."""
+    if not inputs.get("truth"):
+        return None, None
+    from hybridtwin.io import files
+
+    truth = files.read_checked(inputs.get("truth"))["truth_mm"].to_numpy(float)
+    return truth, float(files.read_json(inputs.get("demo_spec"))["noise_mm"])

@@ -13,7 +13,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 from sklearn.utils.validation import check_is_fitted
 
-from .gate import DoEStandardizer, input_names, remember_inputs, restore_inputs
+from hybridtwin.paper.gate import DoEStandardizer, input_names, remember_inputs, restore_inputs
 
 PREDICT_ROWS = 100_000  # rows per prediction chunk
 

@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .crossval import splice_out_of_fold
-from .files import in_support
-from .hybrid import gated
-from .metrics import rmse, scores
+from hybridtwin.crossval import splice_out_of_fold
+from hybridtwin.io.files import in_support
+from hybridtwin.metrics import rmse, scores
+from hybridtwin.models import compose
+from hybridtwin.models.registry import HYBRID, HYBRID_GATED, HYBRID_UNFILTERED, SURROGATE
 
 
 def dataset_summary(
@@ -64,13 +65,13 @@ def sensitivity_table(predictions: pd.DataFrame, sample_note: str = "") -> pd.Da
     """
     measured = predictions["measured"].to_numpy(float)
     inside = in_support(predictions)
-    surrogate = predictions["pred_surrogate"].to_numpy(float)
-    filtered = predictions["pred_hybrid_oof"].to_numpy(float)
+    surrogate = predictions[SURROGATE.column].to_numpy(float)
+    filtered = predictions[HYBRID.oof_column].to_numpy(float)
     strategies = {
         "rmse_surrogate_only": surrogate,
         "rmse_filtered_train_no_gate": filtered,
-        "rmse_unfiltered_train_no_gate": predictions["pred_hybrid_unfiltered_oof"].to_numpy(float),
-        "rmse_filtered_train_gated": np.where(inside, filtered, surrogate),
+        "rmse_unfiltered_train_no_gate": predictions[HYBRID_UNFILTERED.oof_column].to_numpy(float),
+        "rmse_filtered_train_gated": compose.gated(surrogate, filtered, inside),
     }
     rows = []
     for region, mask in (("in_support", inside), ("out_of_support", ~inside), ("all", np.ones_like(inside))):
@@ -92,8 +93,8 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
     measured, simulated = np.asarray(measured, float), np.asarray(simulated, float)
     surrogate, residual_pred = np.asarray(surrogate, float), np.asarray(residual_pred, float)
     true_residual = measured - simulated
-    hybrid = surrogate + residual_pred
-    hybrid_gated = gated(surrogate, residual_pred, in_support)
+    predicted = compose.hybrids(surrogate, residual_pred, in_support)
+    hybrid, hybrid_gated = predicted[HYBRID.name], predicted[HYBRID_GATED.name]
     comparisons = {
         "residual (predicted vs true)": (true_residual, residual_pred),
         "simulation (measured vs FE)": (measured, simulated),
@@ -119,9 +120,9 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
         {
             "measured": measured,
             "simulated": simulated,
-            "pred_surrogate": surrogate,
-            "pred_hybrid": hybrid,
-            "pred_hybrid_gated": hybrid_gated,
+            SURROGATE.column: surrogate,
+            HYBRID.column: hybrid,
+            HYBRID_GATED.column: hybrid_gated,
             "true_residual": true_residual,
             "pred_residual": residual_pred,
             "error_simulation": measured - simulated,
@@ -141,31 +142,36 @@ def production_predictions(
     filtered_oof: pd.DataFrame,
     unfiltered_oof: pd.DataFrame,
 ) -> pd.DataFrame:
-    """One row per production row: support, surrogate, residual models and hybrids.
+    """One row per production row: support, surrogate, residual models and hybrids (without the unfiltered
+    model's columns where ``unfiltered`` and ``unfiltered_oof`` are None).
 
     ``pred_hybrid`` uses the final filtered-train model (no gate); the ``*_oof``
     columns hold out-of-fold predictions for rows a model was trained on, the
     honest basis of every error the workflow reports on production data.
     """
     n = len(residuals)
-    surrogate = residuals["pred_surrogate"].to_numpy(float)
+    surrogate = residuals[SURROGATE.column].to_numpy(float)
     inside = in_support(support)
     filtered_cv = splice_out_of_fold(filtered, filtered_oof["row"], filtered_oof["pred_residual_oof"])
-    unfiltered_cv = splice_out_of_fold(np.full(n, np.nan), unfiltered_oof["row"], unfiltered_oof["pred_residual_oof"])
+    unfiltered_cv = None
+    if unfiltered_oof is not None:
+        unfiltered_cv = splice_out_of_fold(
+            np.full(n, np.nan), unfiltered_oof["row"], unfiltered_oof["pred_residual_oof"]
+        )
+    final = compose.hybrids(surrogate, filtered, inside, unfiltered)
+    honest = compose.hybrids(surrogate, filtered_cv, inside, unfiltered_cv)
+    models = [model for model in (HYBRID, HYBRID_GATED, HYBRID_UNFILTERED) if model.name in final]
     return pd.DataFrame(
         {
             "row": np.arange(n),
             "in_support": inside,
             "knn_distance": support["knn_distance"].to_numpy(float),
             "measured": residuals["measured"].to_numpy(float),
-            "pred_surrogate": surrogate,
-            "pred_surrogate_std": residuals["pred_surrogate_std"].to_numpy(float),
+            SURROGATE.column: surrogate,
+            f"{SURROGATE.column}_std": residuals[f"{SURROGATE.column}_std"].to_numpy(float),
             "residual_approx": residuals["residual_approx"].to_numpy(float),
             "pred_residual": filtered,
-            "pred_hybrid": surrogate + filtered,
-            "pred_hybrid_gated": gated(surrogate, filtered, inside),
-            "pred_hybrid_unfiltered": surrogate + unfiltered,
-            "pred_hybrid_oof": surrogate + filtered_cv,
-            "pred_hybrid_unfiltered_oof": surrogate + unfiltered_cv,
+            **{model.column: final[model.name] for model in models},
+            **{model.oof_column: honest[model.name] for model in models if model is not HYBRID_GATED},
         }
     )

@@ -28,23 +28,13 @@ import numpy as np
 import pandas as pd
 from crepes import ConformalRegressor
 
-from .files import in_support
-from .metrics import rmse
+from hybridtwin.io.files import in_support
+from hybridtwin.metrics import rmse
+from hybridtwin.models import compose, registry
 
 IN_SUPPORT = "in_support"
-# the models a row's prediction can come from; the unfiltered hybrid trains on out-of-support rows,
-# so its errors there are those of random folds through the very campaigns it learnt: reported, not recommended
-RECOMMENDABLE = (
-    "surrogate",
-    "hybrid_gated",
-    "hybrid",
-    "extended",
-    "extended_hybrid",
-    "gp_discrepancy",
-    "cokriging",
-    "stack",
-)
-STACK = "stack"  # a non-negative blend of the other recommendable models, per region
+# the models a row's prediction can come from (registry.RECOMMENDABLE); the stack blends the others
+STACK = registry.STACK.name
 MIN_CALIBRATION_ROWS = 100
 MAX_CALIBRATION_ROWS = 5000
 # test rows scored per region: a coverage near 90% is known to +-0.2 points (95%) from 100,000 rows, and a plant log
@@ -58,16 +48,16 @@ def out_of_support_region(index: int) -> str:
 
 def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
     """Per model, the predictions no row was trained on (columns of results/predictions/production.csv)."""
-    inside = in_support(predictions)
-    surrogate = predictions["pred_surrogate"].to_numpy(float)
+    surrogate = predictions[registry.SURROGATE.column].to_numpy(float)
+    hybrid = predictions[registry.HYBRID.oof_column].to_numpy(float)
     honest = {
-        "surrogate": surrogate,
-        "hybrid_gated": np.where(inside, predictions["pred_hybrid_oof"].to_numpy(float), surrogate),
-        "hybrid": predictions["pred_hybrid_oof"].to_numpy(float),
+        registry.SURROGATE.name: surrogate,
+        registry.HYBRID_GATED.name: compose.gated(surrogate, hybrid, in_support(predictions)),
+        registry.HYBRID.name: hybrid,
     }
-    for model in ("hybrid_unfiltered", "extended", "extended_hybrid", "gp_discrepancy", "cokriging"):
-        if f"pred_{model}_oof" in predictions:
-            honest[model] = predictions[f"pred_{model}_oof"].to_numpy(float)
+    for model in registry.WITH_OOF_COLUMN:
+        if model.oof_column in predictions:
+            honest[model.name] = predictions[model.oof_column].to_numpy(float)
     return honest
 
 
@@ -189,7 +179,7 @@ def _cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarr
 
 
 def _stack_members(predictions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    return {m: p for m, p in predictions.items() if m in RECOMMENDABLE and m != STACK}
+    return {m: p for m, p in predictions.items() if m in registry.RECOMMENDABLE and m != STACK}
 
 
 def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> list[str]:
@@ -198,7 +188,7 @@ def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> l
     The same rows for all: each part's noise then weighs on every model alike, and a difference far
     below the noise still shows (on different rows, the noise of the rows decides).
     """
-    contenders = {m: p for m, p in candidates.items() if m in RECOMMENDABLE}
+    contenders = {m: p for m, p in candidates.items() if m in registry.RECOMMENDABLE}
     common = rows[np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)]
     if not len(common):  # no row where all have a value: each on its own rows
         scores = {
@@ -206,7 +196,7 @@ def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> l
         }
     else:
         scores = {m: rmse(measured[common], p[common]) for m, p in contenders.items()}
-    return sorted(scores, key=lambda m: (scores[m], RECOMMENDABLE.index(m)))
+    return sorted(scores, key=lambda m: (scores[m], registry.RECOMMENDABLE.index(m)))
 
 
 class RegionIntervals:
@@ -314,7 +304,7 @@ class RegionIntervals:
         """The recommended model's name per row: the best of its region's ranking that has a value there
         (a model whose inputs a row lacks has none); the paper's gated hybrid where a region has no calibration."""
         region = _regions(region).choice
-        chosen = np.full(len(region), "hybrid_gated", dtype=object)
+        chosen = np.full(len(region), registry.HYBRID_GATED.name, dtype=object)
         for name, order in self.ranking.items():
             rows = np.flatnonzero(region == name)
             for model in reversed(order):  # from the worst up: the best model with a value is written last

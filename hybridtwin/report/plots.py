@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .crossval import training_subset  # noqa: E402
+from hybridtwin.crossval import training_subset  # noqa: E402
 
 PCA_ROWS = 200_000  # production parts the enrichment map's axes are fitted on (every part of a shorter log)
 

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.isotonic import IsotonicRegression
 
-from .files import json_safe
+from hybridtwin.io.files import json_safe
 
 FAMILIES = {
     "linear": "linear",
@@ -366,7 +366,7 @@ def extrapolates(name: str, x, y, n_blocks: int = 50) -> bool:
     the extrapolated prediction is better, by a block-wise one-sided test over consecutive
     rows. Group offsets never extrapolate (an unseen level gets the mean).
     """
-    from .metrics import block_p_value
+    from hybridtwin.metrics import block_p_value
 
     if name == Group.name:
         return False

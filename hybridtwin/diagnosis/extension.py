@@ -11,17 +11,20 @@ once a term took the effect, must never make the paper's method worse where it m
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 
-from . import forms
-from .causes import Term
-from .crossval import splice_out_of_fold, training_subset
-from .files import in_support
-from .metrics import rmse, signed_rank_p_value
+from hybridtwin.crossval import splice_out_of_fold, training_subset
+from hybridtwin.diagnosis import forms
+from hybridtwin.diagnosis.causes import Term
+from hybridtwin.io.files import in_support
+from hybridtwin.metrics import rmse, signed_rank_p_value
+from hybridtwin.models import compose
+from hybridtwin.models.registry import EXTENDED, EXTENDED_HYBRID, HYBRID, SURROGATE
 
 log = logging.getLogger(__name__)
 
@@ -94,6 +97,10 @@ class DiscrepancyExtension(RegressorMixin, BaseEstimator):
         return model
 
 
+# the guard's choice in models/extension.json
+STANDS_KEY = "extended_hybrid_out_of_support"
+
+
 @dataclass
 class Models:
     """The four predictors of the residual correction, fitted on in-support rows."""
@@ -101,6 +108,15 @@ class Models:
     extension: DiscrepancyExtension
     remainder: object  # XGBoost model of residual - extension
     out_of_support: bool = True  # whether the extended hybrid stands out of the support (the guard's choice)
+
+    def stored(self) -> dict:
+        """models/extension.json: the extension's terms and the guard's choice (the remainder is stored apart,
+        in XGBoost's own format)."""
+        return {**self.extension.to_dict(), STANDS_KEY: self.out_of_support}
+
+    @classmethod
+    def from_stored(cls, data: dict, remainder) -> "Models":
+        return cls(DiscrepancyExtension.from_dict(data), remainder, bool(data[STANDS_KEY]))
 
 
 # beyond doubt out of the support: better on average, and a positive gain in the typical stretch of
@@ -138,38 +154,90 @@ def guard(measured, extended_hybrid, hybrid, in_support, choosing) -> tuple[np.n
     """The extended hybrid after the guard's choice on the out-of-support ``choosing`` rows, and that choice."""
     inside = np.asarray(in_support, bool)
     stands = keeps_out_of_support(measured, extended_hybrid, hybrid, np.asarray(choosing, bool) & ~inside)
-    return guarded(extended_hybrid, hybrid, inside, stands), stands
+    return compose.guarded(extended_hybrid, hybrid, inside, stands), stands
 
 
-def guarded(extended_hybrid, hybrid, in_support, out_of_support: bool) -> np.ndarray:
-    """The extended hybrid, or where it does not stand (out of the support, by the guard's choice) the paper's."""
-    if out_of_support:
-        return np.asarray(extended_hybrid, float)
-    return np.where(np.asarray(in_support, bool), extended_hybrid, hybrid)
+@dataclass(frozen=True)
+class Fitting:
+    """How the extension's models are fitted: on which inputs the remainder's XGBoost model (``make_xgb()``
+    makes a fresh one) learns, and each fit on a seeded sample of at most ``max_rows`` of its rows."""
+
+    inputs: tuple[str, ...]
+    make_xgb: Callable
+    max_rows: int | None = None
+    seed: int = 0
 
 
-def fit_models(
-    frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, max_rows: int | None = None, seed=0
-) -> Models:
-    """The extension and the XGBoost remainder, both on a seeded sample of at most ``max_rows`` rows."""
-    rows = training_subset(len(residual), max_rows or len(residual), seed)
+@dataclass
+class Parts:
+    """The production parts the extension learns from and is judged on, in row order.
+
+    ``production``: the inputs and the causes' columns; ``residuals``: measured, residual_approx,
+    pred_surrogate, in_support; ``hybrid``: the paper's hybrid (out of the support the final model's value,
+    which the guard compares with).
+    """
+
+    production: pd.DataFrame
+    residuals: pd.DataFrame
+    hybrid: np.ndarray
+
+    @property
+    def inside(self) -> np.ndarray:
+        return in_support(self.residuals)
+
+    @property
+    def residual(self) -> np.ndarray:
+        return self.residuals["residual_approx"].to_numpy(float)
+
+    @property
+    def surrogate(self) -> np.ndarray:
+        return self.residuals[SURROGATE.column].to_numpy(float)
+
+    def matrix(self, inputs) -> np.ndarray:
+        return self.production[list(inputs)].to_numpy(float)
+
+
+def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, fitting: Fitting) -> Models:
+    """The extension and the XGBoost remainder, both on a seeded sample of at most ``fitting.max_rows`` rows."""
+    rows = training_subset(len(residual), fitting.max_rows or len(residual), fitting.seed)
     frame, X, residual = frame.iloc[rows], X[rows], residual[rows]
     extension = DiscrepancyExtension(terms).fit(frame, residual)
-    remainder = make_xgb().fit(X, residual - extension.predict(frame))
+    remainder = fitting.make_xgb().fit(X, residual - extension.predict(frame))
     return Models(extension, remainder)
 
 
-def cross_validated(
-    frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, make_xgb, splits, max_rows=None, seed=0
-):
+def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, fitting: Fitting, splits):
     """Out-of-fold residual corrections of the extension and the extended hybrid."""
     extended = np.empty(len(residual))
     extended_hybrid = np.empty(len(residual))
     for train, test in splits:
-        models = fit_models(frame.iloc[train], X[train], residual[train], terms, make_xgb, max_rows, seed)
+        models = fit_models(frame.iloc[train], X[train], residual[train], terms, fitting)
         extended[test] = models.extension.predict(frame.iloc[test])
         extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
     return extended, extended_hybrid
+
+
+def fit_guarded(parts: Parts, terms, fitting: Fitting, choosing=None) -> tuple[Models, dict[str, np.ndarray]]:
+    """The extension and the extended hybrid fitted on the in-support parts, their predictions for every part,
+    and the guard's choice on the out-of-support ``choosing`` parts (None: all) of whether the extended hybrid
+    stands there (:func:`keeps_out_of_support`)."""
+    rows = np.flatnonzero(parts.inside)
+    X = parts.matrix(fitting.inputs)
+    models = fit_models(parts.production.iloc[rows], X[rows], parts.residual[rows], terms, fitting)
+    terms_and_rest = (models.extension.predict(parts.production), models.remainder.predict(X))
+    final = compose.extended(parts.surrogate, *terms_and_rest, parts.hybrid, parts.inside, True)
+    choosing = np.ones(len(parts.inside), bool) if choosing is None else choosing
+    final[EXTENDED_HYBRID.name], models.out_of_support = guard(
+        parts.residuals["measured"], final[EXTENDED_HYBRID.name], parts.hybrid, parts.inside, choosing
+    )
+    return models, final
+
+
+def predict(models: Models, frame: pd.DataFrame, X: np.ndarray, surrogate, hybrid, inside) -> dict[str, np.ndarray]:
+    """The extended model and the (guarded) extended hybrid at the rows of ``frame``."""
+    return compose.extended(
+        surrogate, models.extension.predict(frame), models.remainder.predict(X), hybrid, inside, models.out_of_support
+    )
 
 
 @dataclass
@@ -183,76 +251,43 @@ class Evaluation:
     matched: dict[str, np.ndarray]
 
 
-def evaluate(
-    production: pd.DataFrame,
-    residuals: pd.DataFrame,
-    hybrid: pd.DataFrame,
-    matched: pd.DataFrame,
-    matched_cases: pd.DataFrame,
-    inputs,
-    terms,
-    make_xgb,
-    splits,
-    choosing=None,
-    max_train_rows: int | None = None,
-    seed: int = 0,
-) -> Evaluation:
-    """Fit the extension and the extended hybrid on the in-support rows and predict with all four models.
+def evaluate(parts: Parts, terms, fitting: Fitting, splits, choosing=None, matched=None) -> Evaluation:
+    """Fit the extension and the extended hybrid on the in-support parts, predict with all four models, and score
+    the in-support parts out of fold.
 
-    ``residuals``: measured, residual_approx, pred_surrogate, in_support per production row; ``hybrid``: the
-    hybrid's predictions (pred_hybrid_oof); ``matched_cases``: in_support, surrogate and hybrid predictions per
-    matched case. ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold
-    predictions. ``choosing``: the production rows whose measured values decide, out of the support, whether
-    the extended hybrid stands there (:func:`keeps_out_of_support`; None: all rows). Each fit takes a seeded
-    sample of at most ``max_train_rows`` of its rows.
+    ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold predictions;
+    ``choosing`` the parts whose measured values decide, out of the support, whether the extended hybrid stands
+    there. ``matched``: (matched cases' table, their in_support, surrogate and hybrid predictions).
     """
-    if len(matched_cases) != len(matched):
-        raise ValueError(f"{len(matched_cases)} matched-case predictions for {len(matched)} matched cases")
-    rows = np.flatnonzero(in_support(residuals))
-    X = production[list(inputs)].to_numpy(float)
-    r = residuals["residual_approx"].to_numpy(float)
-    surrogate = residuals["pred_surrogate"].to_numpy(float)
-    models = fit_models(production.iloc[rows], X[rows], r[rows], terms, make_xgb, max_train_rows, seed)
-    extended = surrogate + models.extension.predict(production)
-    extended_hybrid = extended + models.remainder.predict(X)
-    inside = in_support(residuals)
-    # out of the support: the hybrid fitted on all in-support parts
-    hybrid_final = hybrid["pred_hybrid_oof"].to_numpy(float)
-    choosing = np.ones(len(inside), bool) if choosing is None else choosing
-    extended_hybrid, models.out_of_support = guard(
-        residuals["measured"], extended_hybrid, hybrid_final, inside, choosing
+    models, final = fit_guarded(parts, terms, fitting, choosing)
+    rows = np.flatnonzero(parts.inside)
+    surrogate = parts.surrogate
+    oof = cross_validated(
+        parts.production.iloc[rows], parts.matrix(fitting.inputs)[rows], parts.residual[rows], terms, fitting, splits
     )
-    oof_extended, oof_extended_hybrid = cross_validated(
-        production.iloc[rows], X[rows], r[rows], terms, make_xgb, splits, max_train_rows, seed
-    )
-    scored = {
-        "surrogate": surrogate,
-        "hybrid": hybrid_final,
-        "extended": splice_out_of_fold(extended, rows, surrogate[rows] + oof_extended),
-        "extended_hybrid": splice_out_of_fold(extended_hybrid, rows, surrogate[rows] + oof_extended_hybrid),
-    }
-    surrogate_m = matched_cases["pred_surrogate"].to_numpy(float)
-    extended_m = surrogate_m + models.extension.predict(matched)
-    matched_predictions = {
-        "surrogate": surrogate_m,
-        "hybrid": matched_cases["pred_hybrid"].to_numpy(float),
-        "extended": extended_m,
-        "extended_hybrid": guarded(
-            extended_m + models.remainder.predict(matched[list(inputs)].to_numpy(float)),
-            matched_cases["pred_hybrid"].to_numpy(float),
-            in_support(matched_cases),
-            models.out_of_support,
-        ),
-    }
-    predictions = pd.DataFrame(
+    scored = {SURROGATE.name: surrogate, HYBRID.name: parts.hybrid}
+    for model, values in zip((EXTENDED, EXTENDED_HYBRID), oof):
+        scored[model.name] = splice_out_of_fold(final[model.name], rows, surrogate[rows] + values)
+    production = pd.DataFrame(
         {
-            "pred_extended": extended,
-            "pred_extended_hybrid": extended_hybrid,
-            "pred_extended_oof": scored["extended"],
-            "pred_extended_hybrid_oof": scored["extended_hybrid"],
+            **{model.column: final[model.name] for model in (EXTENDED, EXTENDED_HYBRID)},
+            **{model.oof_column: scored[model.name] for model in (EXTENDED, EXTENDED_HYBRID)},
         }
     )
-    return Evaluation(models, predictions, scored, matched_predictions)
+    return Evaluation(models, production, scored, _at_matched(models, fitting, *matched) if matched else {})
+
+
+def _at_matched(models: Models, fitting: Fitting, matched: pd.DataFrame, cases: pd.DataFrame) -> dict:
+    """The four models at the matched cases (``cases``: their in_support, surrogate and hybrid predictions)."""
+    if len(cases) != len(matched):
+        raise ValueError(f"{len(cases)} matched-case predictions for {len(matched)} matched cases")
+    surrogate, hybrid = cases[SURROGATE.column].to_numpy(float), cases[HYBRID.column].to_numpy(float)
+    X = matched[list(fitting.inputs)].to_numpy(float)
+    return {
+        SURROGATE.name: surrogate,
+        HYBRID.name: hybrid,
+        **predict(models, matched, X, surrogate, hybrid, in_support(cases)),
+    }
 
 
 def gain_table(

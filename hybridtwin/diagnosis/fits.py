@@ -1,0 +1,249 @@
+"""A candidate's forms fitted to a residual and scored held out: the best form, the rules of significance.
+
+A form is chosen by K-fold held-out error with a BIC-style penalty on its parameters; numeric candidates
+are held out in stretches of their own values (:func:`value_folds`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from hybridtwin.crossval import folds as kfolds
+from hybridtwin.diagnosis import forms
+from hybridtwin.diagnosis.candidates import Candidate
+from hybridtwin.diagnosis.causes import Term
+from hybridtwin.diagnosis.forms import fit_form
+from hybridtwin.diagnosis.policy import BINS_PER_FOLD, MAX_CLOSED_FORM_PARAMS, SHARE_TOLERANCE
+from hybridtwin.diagnosis.settings import Settings
+from hybridtwin.metrics import block_p_value
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Fit:
+    """A candidate's best form on a given target, with held-out scores."""
+
+    candidate: Candidate
+    form: forms.Form
+    oof: np.ndarray
+    cv_mse: float
+    null_mse: float
+    score: float
+    p_value: float
+    effect_range: float
+    effect_std: float
+    alternatives: list = field(default_factory=list, repr=False)
+
+    @property
+    def explained_share(self) -> float:
+        return float(max(0.0, 1.0 - self.cv_mse / self.null_mse)) if self.null_mse > 0 else 0.0
+
+    @property
+    def term(self) -> Term:
+        return Term(self.candidate.cause, self.form.name)
+
+
+def held_out(name: str, x, y, splits) -> np.ndarray:
+    oof = np.empty(len(y))
+    for train, test in splits:
+        oof[test] = fit_form(name, x[train], y[train]).predict(x[test])
+    return oof
+
+
+def value_folds(candidate: Candidate, settings: Settings) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Folds that hold out whole stretches of a numeric candidate's values.
+
+    Press settings are constant within a campaign, and the surrogate's error is too,
+    so the residual carries one level per campaign. Rows held out at random leave each
+    campaign's other rows in training, and a many-step form (a monotone trend) would
+    be scored on recalling those levels. Held-out quantile bins of the candidate's own
+    values, spread over the folds, score a form on values it has not seen: what it
+    will meet out of the support. Group ids (their levels must be seen) keep shuffled folds.
+    """
+    n = len(candidate.values)
+    if candidate.kind == "group":
+        return kfolds(n, settings.folds, settings.seed)
+    edges = np.quantile(candidate.values, np.linspace(0, 1, BINS_PER_FOLD * settings.folds + 1)[1:-1])
+    bins = np.unique(np.searchsorted(edges, candidate.values, side="right"), return_inverse=True)[1]
+    n_bins = bins.max() + 1
+    if n_bins < settings.folds:  # a few levels only: nothing to spread
+        return kfolds(n, settings.folds, settings.seed)
+    fold_of_bin = np.random.default_rng(settings.seed).permutation(n_bins) % settings.folds
+    fold = fold_of_bin[bins]
+    return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(settings.folds)]
+
+
+def fold_sets(candidate: Candidate, settings: Settings) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """The fold sets a candidate is scored on: one per axis along which it must predict unseen values.
+
+    A product of two columns is scored along each of its columns, and counts by the worse of
+    the two, as a single column is scored along its own: on shuffled folds it would recall
+    what its columns' settings carry and out-score the single column that causes it.
+    """
+    if candidate.kind != "interaction":
+        return [value_folds(candidate, settings)]
+    return [
+        value_folds(Candidate.new(column, "input", candidate.values[:, j], (column,)), settings)
+        for j, column in enumerate(candidate.columns)
+    ]
+
+
+def held_out_worst(name: str, candidate: Candidate, y, settings: Settings) -> np.ndarray:
+    """Held-out predictions of a form on the candidate's fold set where they err most."""
+    predictions = [held_out(name, candidate.values, y, splits) for splits in fold_sets(candidate, settings)]
+    return max(predictions, key=lambda oof: float(np.mean((y - oof) ** 2)))
+
+
+def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.0) -> Fit:
+    """The candidate's form with the lowest penalized held-out error (BIC-style penalty).
+
+    The other forms tried are kept in ``alternatives`` (best first).
+    """
+    n = len(y)
+    null_mse = float(np.mean(y**2))
+    fits = []
+    for name in candidate.form_names:
+        try:
+            oof = held_out_worst(name, candidate, y, settings)
+            full = fit_form(name, candidate.values, y)
+        except (np.linalg.LinAlgError, ValueError) as error:
+            log.debug("form %s on %s failed: %s", name, candidate.name, error)
+            continue
+        cv_mse = float(np.mean((y - oof) ** 2))
+        score = n * np.log(max(cv_mse, 1e-300)) + full.n_params * np.log(n) - n * np.log(max(null_mse, 1e-300))
+        fitted = full.predict(candidate.values)
+        fits.append(
+            Fit(
+                candidate,
+                full,
+                oof,
+                cv_mse,
+                null_mse,
+                float(score),
+                block_p_value(y, oof, settings.n_blocks),
+                float(np.ptp(fitted)),
+                float(np.std(fitted)),
+            )
+        )
+    fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
+    fits = _unseen_saturation_last(_named_form_first(fits, min_effect), min_effect, candidate)
+    best = fits[0]
+    best.alternatives = fits
+    return best
+
+
+def _unseen_saturation_last(fits: list[Fit], min_effect: float, candidate: Candidate) -> list[Fit]:
+    """A sigmoid whose change (10-90%) is wider than the values it was fitted on gives way to a simpler
+    closed form that predicts the same within ``min_effect``.
+
+    Such a sigmoid shows no saturation in the data: it is a trend with a bend the data do
+    not show (the surrogate's own error along the column can put one there), and it says
+    "saturating" where the data say "slope".
+    """
+    first = fits[0] if fits else None
+    if first is None or first.form.name != forms.Sigmoid.name or candidate.kind not in ("input", "log", "time"):
+        return fits
+    if forms.SIGMOID_SPAN * first.form.width <= float(np.ptp(candidate.values)):
+        return fits
+    simpler = [
+        fit for fit in fits[1:] if fit.form.n_params < first.form.n_params and predicts_the_same(fit, first, min_effect)
+    ]
+    if not simpler:
+        return fits
+    choice = min(simpler, key=lambda fit: (fit.form.n_params, fit.score))
+    return [choice] + [fit for fit in fits if fit is not choice]
+
+
+def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:
+    """A few-parameter form ahead of a winning monotone trend that it matches within ``min_effect``.
+
+    The monotone trend takes up every bend in the data, the surrogate's own error
+    along the column among them; a closed form that predicts the same within that
+    error says what the effect is (a step at 0.50 mm) and how it extrapolates.
+    """
+    if not fits or fits[0].form.name != forms.Monotone.name:
+        return fits
+    for index, fit in enumerate(fits[1:], start=1):
+        if predicts_the_same(fit, fits[0], min_effect):
+            return [fit] + fits[:index] + fits[index + 1 :]
+    return fits
+
+
+def predicts_the_same(fit: Fit, reference: Fit, min_effect: float) -> bool:
+    """Whether ``fit`` explains about as much as ``reference`` and predicts it within ``min_effect`` (std)."""
+    difference = fit.form.predict(fit.candidate.values) - reference.form.predict(reference.candidate.values)
+    return (
+        fit.explained_share >= reference.explained_share - share_tolerance(reference, min_effect)
+        and float(np.std(difference)) < min_effect
+    )
+
+
+def share_tolerance(fit: Fit, min_effect: float) -> float:
+    """How much less of the residual variance a simpler cause may explain and still count as the same.
+
+    A many-level fit (coil offsets that follow the setting campaigns, a monotone trend)
+    takes up the surrogate's own error along with the effect, so against it the margin is
+    what that error can account for; a closed form of a few parameters cannot.
+    """
+    if fit.form.n_params <= MAX_CLOSED_FORM_PARAMS:
+        return SHARE_TOLERANCE
+    return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
+
+
+def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
+    """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
+    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, settings, min_effect) for c in candidates)
+    return {c.name: fit for c, fit in zip(candidates, fits)}
+
+
+def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float) -> bool:
+    # a pair counts as an interaction only where the product beats its two main effects;
+    # otherwise its columns speak for themselves as candidates of their own
+    return (
+        fit.p_value < settings.alpha / max(1, n_tests)
+        and fit.score < 0
+        and fit.effect_std > min_effect
+        and fit.form.name != forms.Additive.name
+    )
+
+
+@dataclass(frozen=True)
+class Rules:
+    """What every step of the selection asks of a fit, fixed once per diagnosis: the settings, the number of
+    candidates tested (Bonferroni) and the least effect (the surrogate's own uncertainty times its margin)."""
+
+    settings: Settings
+    n_tests: int = 1
+    min_effect: float = 0.0
+
+    def significant(self, fit: Fit) -> bool:
+        return is_significant(fit, self.n_tests, self.settings, self.min_effect)
+
+    def best_fit(self, candidate: Candidate, y) -> Fit:
+        return self.settled(best_fit(candidate, y, self.settings, self.min_effect))
+
+    def fit_all(self, candidates: list[Candidate], y) -> dict[str, Fit]:
+        return {name: self.settled(fit) for name, fit in fit_all(candidates, y, self.settings, self.min_effect).items()}
+
+    def settled(self, fit: Fit) -> Fit:
+        """A form put ahead of a better-scoring monotone trend (it predicts the same, and says what the
+        effect is) stands only where it is significant itself; where only the trend is, the trend stays.
+
+        A closed form explains less held out than the trend it replaced (the trend's extra is allowed as the
+        surrogate's own error), and a wear drift's slope then fell under the Bonferroni bar while its trend
+        stood far above it: a weaker column took its place (two-cause draw 1420).
+        """
+        if self.significant(fit):
+            return fit
+        trends = [alt for alt in fit.alternatives if alt.form.name == forms.Monotone.name and alt.score < fit.score]
+        if not trends or not self.significant(trends[0]):
+            return fit
+        trend = dataclasses.replace(trends[0])
+        trend.alternatives = [trend] + [alt for alt in fit.alternatives if alt is not trends[0]]
+        return trend

@@ -1,0 +1,28 @@
+"""The diagnosis' selection policy, in one place.
+
+The statistical settings a user may change (folds, alpha, the blocks of the block t-test, the surrogate
+margin) are in :class:`~hybridtwin.diagnosis.settings.Settings`, from the config's ``diagnosis:``.
+"""
+
+# numeric candidates are scored on held-out quantile bins of their own values, this many per fold:
+# enough bins to spread each fold over the range, few enough that a bin holds whole campaigns
+BINS_PER_FOLD = 4
+# a simpler cause may explain this much less of the residual variance and still count as the same
+SHARE_TOLERANCE = 0.05
+# forms with at most this many parameters are closed forms (linear, quadratic, step, sigmoid, product);
+# more (monotone trend, group offsets) take up the surrogate's own error too
+MAX_CLOSED_FORM_PARAMS = 3
+# elapsed time and a product of two columns count this many parameters more than they have: both stand
+# for something else (what changes with time; one of the two columns)
+PROXY_PENALTY = 0.5
+# an id stands for a quantity that accounts for at least this share of its level differences
+PROXY_SHARE = 0.5
+# a product of two columns must account for more: among dozens of pairs with three parameters each,
+# one took up half of a few dozen coil offsets by chance (3 of 13 coil_itself plants of the families bank)
+PROXY_SHARE_PAIR = 0.75
+# confounding: a chosen cause is tested both ways against the strongest rivals that explain at least this
+# share of what it explains on its own, at most this many of them
+RIVAL_SHARE = 0.5
+MAX_RIVALS = 8
+# a changed cause changes what the others are fitted to: go round again, a few times at most
+REFINE_PASSES = 3

@@ -1,0 +1,246 @@
+"""What the simulation gets wrong: rank candidate causes of the approximate residual.
+
+From the in-support approximate residuals minus their mean (the offset), every
+candidate column -- model inputs, plant log numbers, timestamps as elapsed
+hours, text ids as groups, and products of two inputs -- is fitted with a few
+physically plausible forms (see :mod:`hybridtwin.diagnosis.forms`). A form is chosen by
+K-fold held-out error with a BIC-style penalty on its parameters. Causes are
+then selected forward, each one conditionally on those already chosen, so that
+a correlated neighbour of the real cause (Rm next to Rp0.2, ambient next to die
+temperature, time next to stroke counter) is not named. A cause counts as
+significant when its held-out gain passes a block-wise t-test (blocks of
+consecutive rows, robust to drift and autocorrelation; Bonferroni over the
+candidates) and its effect is larger than the surrogate's own uncertainty,
+which is also in the residual.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.crossval import folds as kfolds
+from hybridtwin.diagnosis import forms
+from hybridtwin.diagnosis.candidates import Candidate, build_candidates
+from hybridtwin.diagnosis.causes import Term
+from hybridtwin.diagnosis.confounding import confounding
+from hybridtwin.diagnosis.fits import Fit, Rules
+from hybridtwin.diagnosis.naming import physical_cause, prefer_simpler
+from hybridtwin.diagnosis.policy import REFINE_PASSES, SHARE_TOLERANCE
+from hybridtwin.diagnosis.settings import Settings
+from hybridtwin.diagnosis.table import Found, causes_table
+from hybridtwin.metrics import block_means
+
+
+@dataclass
+class Diagnosis:
+    offset: float
+    offset_se: float
+    n_rows: int
+    residual_std: float
+    surrogate_std: float
+    min_effect: float
+    table: pd.DataFrame
+    y: np.ndarray
+    candidates: dict[str, Candidate]
+    skipped: dict[str, str]
+    selected: list[Fit] = field(default_factory=list)
+    aliases: dict[str, list[str]] = field(default_factory=dict)
+    explained_by: dict[str, str] = field(default_factory=dict)
+    proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
+
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """The chosen causes with their forms: what the extension fits."""
+        return tuple(fit.term for fit in self.selected)
+
+
+@dataclass
+class Selection:
+    """The forward selection's state: the causes chosen so far (refitted jointly), what they leave of the
+    offset-free residual ``y``, every other candidate's fit to that, and the ids named for a quantity
+    (id -> the cause named for it, and the share of its level differences that cause accounts for)."""
+
+    y: np.ndarray
+    candidates: list[Candidate]
+    rules: Rules
+    marginal: dict[str, Fit]
+    chosen: list[Fit] = field(default_factory=list)
+    remaining: np.ndarray | None = None
+    conditional: dict[str, Fit] = field(default_factory=dict)
+    proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.remaining = self.y if self.remaining is None else self.remaining
+        self.conditional = self.conditional or dict(self.marginal)
+
+    @property
+    def names(self) -> set[str]:
+        return {fit.candidate.name for fit in self.chosen}
+
+    def refit(self) -> None:
+        """Joint fit of the chosen causes; what they leave, and every other candidate's fit to it."""
+        models, _ = forms.backfit([s.candidate.values for s in self.chosen], [s.form.name for s in self.chosen], self.y)
+        # the chosen forms refitted jointly; new records, so that the marginal fits keep their own forms
+        self.chosen = [dataclasses.replace(fit, form=model) for fit, model in zip(self.chosen, models)]
+        left = self.y - sum(m.predict(s.candidate.values) for s, m in zip(self.chosen, models))
+        self.remaining = left - left.mean()
+        self.conditional = self.rules.fit_all([c for c in self.candidates if c.name not in self.names], self.remaining)
+
+    def next_cause(self) -> Fit | None:
+        """The next cause given those chosen, or None when no candidate is significant."""
+        chosen = self.names
+        # a pair that is no interaction is not a candidate
+        pool = [f for n, f in self.conditional.items() if n not in chosen and f.form.name != forms.Additive.name]
+        if not pool:
+            return None
+        best = prefer_simpler(
+            min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, self.remaining, self.rules
+        )
+        named, share = physical_cause(best, pool, self.remaining, self.rules.significant)
+        if named is not best:
+            self.proxies[best.candidate.name] = (named.candidate.name, share)
+            best = prefer_simpler(named, pool, self.remaining, self.rules)
+        return best if self.rules.significant(best) else None
+
+    def forward(self) -> None:
+        """Forward selection, each step conditional on the causes already chosen."""
+        while len(self.chosen) < self.rules.settings.max_causes:
+            best = self.next_cause()
+            if best is None:
+                break
+            self.chosen.append(best)
+            self.refit()
+
+    def refine(self) -> bool:
+        """Choose each chosen cause's form again given all the others; returns whether anything changed.
+
+        Chosen one at a time, a cause is fitted with the causes after it still in the
+        residual: a wear drift bends a temperature's saturation into a parabola, and a
+        product a*b takes up part of a cause chosen after it (a die that warms more under
+        higher cushion forces and a wear drift along the same shifts). With every cause in,
+        the form is chosen again, and a product gives way to a or b alone where the single
+        column explains as much (within :data:`SHARE_TOLERANCE`, held out).
+        """
+        changed = False
+        for _ in range(REFINE_PASSES):
+            if not any([self._refined(j) for j in range(len(self.chosen))]):
+                break
+            changed = True
+        return changed
+
+    def choose_again_after_the_first(self) -> None:
+        """The causes after the first were chosen given a first cause that has changed: choose them again."""
+        del self.chosen[1:]
+        self.refit()
+        self.forward()
+        self.refine()
+        self.refit()
+        self.proxies = {key: value for key, value in self.proxies.items() if value[0] in self.names}
+
+    def _partial_residual(self, j: int) -> np.ndarray:
+        """``y`` less the other chosen causes' terms of the joint fit, centred."""
+        chosen = self.chosen
+        models, means = forms.backfit([s.candidate.values for s in chosen], [s.form.name for s in chosen], self.y)
+        rest = self.y - sum(
+            m.predict(s.candidate.values) - c for k, (m, s, c) in enumerate(zip(models, chosen, means)) if k != j
+        )
+        return rest - rest.mean()
+
+    def _refined(self, j: int) -> bool:
+        """Choose cause ``j`` (or, for a product, one of its columns) again given the others; whether it changed."""
+        fit, rest = self.chosen[j], self._partial_residual(j)
+        if fit.candidate.kind == "interaction":
+            return self._product_to_column(j, rest)
+        again = self.rules.best_fit(fit.candidate, rest)
+        if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
+            logged = [c for c in self.candidates if c.kind in ("input", "log") and c.name not in self.names]
+            again = prefer_simpler(again, [again] + [self.rules.best_fit(c, rest) for c in logged], rest, self.rules)
+        if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and self.rules.significant(
+            again
+        ):
+            self.chosen[j] = again
+            return True
+        return False
+
+    def _product_to_column(self, j: int, rest: np.ndarray) -> bool:
+        """A product gives way to one of its columns where that column, given the others, explains as much."""
+        by_name = {c.name: c for c in self.candidates}
+        current = joint_share(self.chosen, self.y, self.rules.settings)
+        singles = [self.rules.best_fit(by_name[c], rest) for c in self.chosen[j].candidate.columns if c in by_name]
+        singles = [single for single in singles if self.rules.significant(single)]
+        scored = [
+            (joint_share(self.chosen[:j] + [single] + self.chosen[j + 1 :], self.y, self.rules.settings), single)
+            for single in singles
+        ]
+        scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
+        if not scored:
+            return False
+        self.chosen[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
+        return True
+
+
+def joint_share(fits: list[Fit], y, settings: Settings) -> float:
+    """Held-out share of ``y`` that several terms explain together (backfitted on each fold's training rows)."""
+    oof = np.zeros_like(y)
+    for train, test in kfolds(len(y), settings.folds, settings.seed):
+        models, means = forms.backfit([f.candidate.values[train] for f in fits], [f.form.name for f in fits], y[train])
+        oof[test] = y[train].mean() + sum(
+            m.predict(f.candidate.values[test]) - c for m, f, c in zip(models, fits, means)
+        )
+    return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
+
+
+def _rows(frame: pd.DataFrame, residual, settings: Settings) -> tuple[pd.DataFrame, np.ndarray]:
+    """The diagnosed rows: all of them, or a seeded sample of ``settings.max_rows`` in row order."""
+    residual = np.asarray(residual, float)
+    frame = frame.reset_index(drop=True)
+    if len(residual) <= settings.max_rows:
+        return frame, residual
+    keep = np.sort(np.random.default_rng(settings.seed).choice(len(residual), settings.max_rows, replace=False))
+    return frame.iloc[keep].reset_index(drop=True), residual[keep]
+
+
+def diagnose(
+    frame: pd.DataFrame, residual, inputs, exclude, settings: Settings, surrogate_std: float = 0.0
+) -> Diagnosis:
+    """Rank candidate causes of ``residual`` (approximate residuals of in-support rows, in row order).
+
+    ``frame`` holds those rows' production columns; ``exclude`` names columns that
+    must not be candidates (the target). ``surrogate_std`` is the surrogate's own
+    predictive uncertainty (noise excluded) on these rows: a cause's term must
+    vary (standard deviation over the rows) by more than ``surrogate_margin``
+    times it, or it could be the surrogate's own error.
+    """
+    frame, residual = _rows(frame, residual, settings)
+    offset = float(residual.mean())
+    y = residual - offset
+    blocks = block_means(residual, settings.n_blocks)
+    candidates, skipped = build_candidates(frame, inputs, exclude, settings)
+    rules = Rules(settings, n_tests=len(candidates), min_effect=settings.surrogate_margin * surrogate_std)
+    selection = Selection(y, candidates, rules, rules.fit_all(candidates, y))
+    selection.forward()
+    if selection.refine():
+        selection.choose_again_after_the_first()
+    aliases, explained_by = confounding(selection.chosen, selection.marginal, y, rules)
+    found = Found(selection.marginal, selection.conditional, selection.chosen, aliases, explained_by, selection.proxies)
+    table = causes_table(found, skipped, rules)
+    return Diagnosis(
+        offset,
+        float(np.std(blocks, ddof=1) / np.sqrt(len(blocks))),
+        len(y),
+        float(y.std()),
+        surrogate_std,
+        rules.min_effect,
+        table,
+        y,
+        {c.name: c for c in candidates},
+        skipped,
+        selection.chosen,
+        aliases,
+        explained_by,
+        selection.proxies,
+    )

@@ -1,0 +1,129 @@
+"""The diagnosis as a table (discrepancy_causes.csv) and as the summary later steps read (diagnosis.json)."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.diagnosis import forms
+from hybridtwin.diagnosis.fits import Rules
+
+if TYPE_CHECKING:
+    from hybridtwin.diagnosis.selection import Diagnosis
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Found:
+    """What the selection found, as the table reports it: every candidate's marginal fit, its fit given the
+    chosen causes, the chosen causes, and what could not be told apart, was explained, or stands for a cause."""
+
+    marginal: dict
+    conditional: dict
+    chosen: list
+    aliases: dict
+    explained_by: dict
+    proxies: dict
+
+
+def causes_table(found: Found, skipped: dict, rules: Rules) -> pd.DataFrame:
+    """discrepancy_causes.csv: every candidate, the chosen causes first (in the order chosen), then by share."""
+    table = pd.DataFrame([_row(name, fit, found, rules) for name, fit in found.marginal.items()])
+    order = {fit.candidate.name: i for i, fit in enumerate(found.chosen)}
+    table["_chosen"] = table["cause"].map(order).fillna(len(order))
+    table = table.sort_values(
+        ["_chosen", "explained_share", "cause"], ascending=[True, False, True], kind="stable"
+    ).drop(columns="_chosen")
+    table.insert(0, "rank", np.arange(1, len(table) + 1))
+    if skipped:
+        log.info("columns not used as candidates: %s", skipped)
+    return table.reset_index(drop=True)
+
+
+def _row(name: str, fit, found: Found, rules: Rules) -> dict:
+    final = next((s for s in found.chosen if s.candidate.name == name), None)
+    if final is not None:
+        # the marginal scores of the form that was chosen, which may not be the best-scoring one
+        fit = next((alt for alt in fit.alternatives if alt.form.name == final.form.name), fit)
+        significant, scored, shown = True, final, final
+    else:
+        scored = found.conditional.get(name, fit)
+        significant, shown = bool(rules.significant(scored if found.chosen else fit)), fit
+    form = shown.form
+    return {
+        "cause": name,
+        "kind": fit.candidate.kind,
+        "form": form.name,
+        "family": forms.FAMILIES[form.name],
+        "n_params": int(form.n_params),
+        "explained_share": fit.explained_share,
+        "conditional_share": scored.explained_share,
+        "effect_range": shown.effect_range,
+        "effect_std": shown.effect_std,
+        "p_value": scored.p_value,
+        "significant": significant,
+        "selected": final is not None,
+        "description": form.describe(
+            name, rules.settings.unit, fit.candidate.cause.unit(dict(rules.settings.input_units))
+        ),
+        "note": _note(name, fit, form, significant, found),
+    }
+
+
+def _note(name: str, fit, form, significant: bool, found: Found) -> str:
+    """What the table says of a candidate beside its scores."""
+    chosen = [s.candidate.name for s in found.chosen]
+    alias_of = [cause for cause, names in found.aliases.items() if name in names]
+    if name in found.proxies and name not in chosen:
+        cause, share = found.proxies[name]
+        return f"an id that stands for {cause}: it accounts for {share:.0%} of the differences between its levels"
+    if found.aliases.get(name):
+        return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
+    if alias_of:
+        return f"cannot be told apart from {alias_of[0]} in this data"
+    if name in found.explained_by:
+        return f"explained by {found.explained_by[name]}: adds nothing once it is in"
+    if not significant and any(set(fit.candidate.columns) & set(s.candidate.columns) for s in found.chosen):
+        return "a variant of a chosen cause's column: adds nothing beyond it"
+    if form.name == forms.Additive.name:
+        return "no interaction: the product does not beat the two main effects"
+    return ""
+
+
+def summary_dict(result: Diagnosis) -> dict:
+    """What the later steps and the report need: offset, chosen causes (JSON-safe), confounding."""
+    descriptions = result.table.set_index("cause")["description"]  # in the target's unit
+    return {
+        "offset": result.offset,
+        "offset_se": result.offset_se,
+        "n_rows": result.n_rows,
+        "residual_std": result.residual_std,
+        "surrogate_std": result.surrogate_std,
+        "min_effect": result.min_effect,
+        "selected": [
+            {
+                "name": f.candidate.name,
+                "kind": f.candidate.kind,
+                "columns": list(f.candidate.columns),
+                "form": f.form.name,
+                "origin": f.candidate.origin,
+                "family": forms.FAMILIES[f.form.name],
+                "description": descriptions[f.candidate.name],
+                "parameters": f.form.to_dict(),
+                "explained_share": f.explained_share,
+                "effect_range": f.effect_range,
+                "effect_std": f.effect_std,
+                "p_value": f.p_value,
+            }
+            for f in result.selected
+        ],
+        "aliases": result.aliases,
+        "explained_by": result.explained_by,
+        "skipped": result.skipped,
+        "proxies": {name: {"cause": cause, "share": share} for name, (cause, share) in result.proxies.items()},
+    }

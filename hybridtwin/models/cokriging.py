@@ -1,0 +1,126 @@
+"""The co-kriging peer: AR1 multi-fidelity co-kriging (SMT's MFK), the simulations as low fidelity and
+``n_high`` in-support parts' measured values as high fidelity.
+
+It stores its training data and hyperparameters as JSON and is rebuilt from them exactly: SMT's MFK trained
+with the given hyperparameters (one likelihood evaluation per level, no search).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from hybridtwin.crossval import folds, training_subset
+from hybridtwin.models.batches import batched
+from hybridtwin.paper.gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
+
+
+def _mfk_class():
+    from smt.applications import MFK
+
+    class FixedMFK(MFK):
+        """SMT's MFK trained with given hyperparameters: one likelihood evaluation per level, no search."""
+
+        def __init__(self, fixed, **options):
+            super().__init__(**options)
+            self._fixed = [np.asarray(level, float) for level in fixed]
+
+        def _run_optimization(self, D):
+            # the state MFK's own search sets up before it evaluates the likelihood
+            self.D = self._componentwise_distance(D)
+            self.noise0 = np.array(self._noise0)
+            theta = self._fixed[self._lvl]
+            value, par = self._reduced_likelihood_function(theta=theta)
+            return value, par, theta
+
+    return MFK, FixedMFK
+
+
+class CoKriging(RegressorMixin, BaseEstimator):
+    """AR1 co-kriging: ``fit(X_high, y_high, X_low=DoE inputs, y_low=simulated)``; ``predict`` gives the target."""
+
+    def __init__(self, n_high: int = 500, n_start: int = 2, random_state: int = 0):
+        self.n_high = n_high
+        self.n_start = n_start
+        self.random_state = random_state
+
+    def _options(self) -> dict:
+        return {
+            "corr": "matern52",
+            "eval_noise": True,
+            "hyper_opt": "Cobyla",
+            "n_start": self.n_start,
+            "theta0": [1.0],
+            "theta_bounds": [1e-4, 50.0],
+            "seed": self.random_state,
+            "print_global": False,
+        }
+
+    def _train(self, model, X_low, y_low, X_high, y_high):
+        model.set_training_values(self.standardizer_.transform(X_low), np.asarray(y_low, float)[:, None], name=0)
+        model.set_training_values(self.standardizer_.transform(X_high), np.asarray(y_high, float)[:, None])
+        model.train()
+        return model
+
+    def fit(self, X, y, X_low=None, y_low=None):
+        remember_inputs(self, X)
+        X_high = np.asarray(X, float)
+        self.n_features_in_ = X_high.shape[1]
+        self.training_rows_ = rows = training_subset(len(X_high), self.n_high, self.random_state)
+        X_low = input_matrix(self, X_low)  # the DoE's columns taken by name, as the parts'
+        self.standardizer_ = DoEStandardizer().fit(X_low)  # the DoE's statistics, as the gate's
+        self.data_ = {
+            "X_low": X_low,
+            "y_low": np.asarray(y_low, float),
+            "X_high": X_high[rows],
+            "y_high": np.asarray(y, float)[rows],
+        }
+        MFK, _ = _mfk_class()
+        self.mfk_ = self._train(MFK(**self._options()), **self.data_)
+        self.hyperparameters_ = [
+            np.append(self.mfk_.optimal_theta[level], self.mfk_.optimal_noise_all[level]).tolist() for level in range(2)
+        ]
+        return self
+
+    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+        """Per high-fidelity row (in ``training_rows_`` order): co-kriging, its hyperparameters fixed, refitted
+        without that row's fold (the simulations kept)."""
+        check_is_fitted(self, "mfk_")
+        _, FixedMFK = _mfk_class()
+        X, y = self.data_["X_high"], self.data_["y_high"]
+        out = np.empty(len(y))
+        for train, test in folds(len(y), n_folds, seed):
+            model = FixedMFK(self.hyperparameters_, **self._options())
+            self._train(model, self.data_["X_low"], self.data_["y_low"], X[train], y[train])
+            out[test] = batched(model.predict_values, self.standardizer_.transform(X[test]))
+        return out
+
+    def predict(self, X) -> np.ndarray:
+        check_is_fitted(self, "mfk_")
+        X = self.standardizer_.transform(input_matrix(self, X))
+        return batched(self.mfk_.predict_values, X)
+
+    def to_dict(self) -> dict:
+        return {
+            "format": "hybridtwin.CoKriging/1",
+            "params": self.get_params(),
+            "inputs": input_names(self),
+            "standardizer": self.standardizer_.to_dict(),
+            "hyperparameters": self.hyperparameters_,
+            "training_rows": self.training_rows_.tolist(),
+            "data": {key: value.tolist() for key, value in self.data_.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "CoKriging":
+        model = cls(**data["params"])
+        model.standardizer_ = DoEStandardizer.from_dict(data["standardizer"])
+        model.data_ = {key: np.asarray(value, float) for key, value in data["data"].items()}
+        model.n_features_in_ = model.data_["X_high"].shape[1]
+        model.hyperparameters_ = data["hyperparameters"]
+        model.training_rows_ = np.asarray(data["training_rows"], int)
+        restore_inputs(model, data)
+        _, FixedMFK = _mfk_class()
+        model.mfk_ = model._train(FixedMFK(model.hyperparameters_, **model._options()), **model.data_)
+        return model

@@ -1,0 +1,87 @@
+"""The GP discrepancy peer (Kennedy-O'Hagan style): the surrogate plus a Gaussian process of the approximate
+residual (Matern 5/2, one length scale per input, white noise).
+
+Hyperparameters by marginal likelihood on ``n_hyper`` of its ``n_fit`` rows, then the GP refitted with them
+fixed on all ``n_fit`` (a GP cannot take every in-support part exactly; both subsets are seeded). It stores
+its training rows and hyperparameters as JSON and is rebuilt from them exactly (no optimizer on load).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from hybridtwin.crossval import folds, training_subset
+from hybridtwin.models.batches import batched
+from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
+from hybridtwin.paper.surrogate import GPRSurrogate
+
+
+class GPDiscrepancy(RegressorMixin, BaseEstimator):
+    """A GP of the residual (measured - surrogate); ``predict`` gives the residual correction."""
+
+    def __init__(self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, random_state: int = 0):
+        self.n_hyper = n_hyper
+        self.n_fit = n_fit
+        self.n_restarts = n_restarts
+        self.random_state = random_state
+
+    def fit(self, X, y, X_low=None, y_low=None):
+        """``X_low``, ``y_low`` (the simulations) are not used: the surrogate already carries them."""
+        remember_inputs(self, X)
+        matrix = np.asarray(X, float)
+        y = np.asarray(y, float)
+        self.n_features_in_ = matrix.shape[1]
+        self.training_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
+        # the hyperparameters from a seeded part of the same rows: every row the GP learnt from is a training row,
+        # and so has an out-of-fold prediction
+        self.hyper_rows_ = self.training_rows_[
+            training_subset(len(self.training_rows_), self.n_hyper, self.random_state)
+        ]
+        hyper = GPRSurrogate(n_restarts=self.n_restarts, random_state=self.random_state)
+        hyper.fit(matrix[self.hyper_rows_], y[self.hyper_rows_])
+        self.gp_ = _with_rows(
+            hyper.to_dict(), hyper.standardizer_.transform(matrix[self.training_rows_]), y[self.training_rows_]
+        )
+        return self
+
+    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+        """Per training row (in ``training_rows_`` order): the GP, its hyperparameters fixed, refitted
+        without that row's fold."""
+        check_is_fitted(self, "gp_")
+        state = self.gp_.to_dict()
+        Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
+        out = np.empty(len(y))
+        for train, test in folds(len(y), n_folds, seed):
+            out[test] = batched(_with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
+        return out
+
+    def predict(self, X) -> np.ndarray:
+        check_is_fitted(self, "gp_")
+        return batched(self.gp_.predict, input_matrix(self, X))
+
+    def to_dict(self) -> dict:
+        return {
+            "format": "hybridtwin.GPDiscrepancy/1",
+            "params": self.get_params(),
+            "inputs": input_names(self),
+            "gp": self.gp_.to_dict(),
+            "n_fit": len(self.training_rows_),
+            "training_rows": self.training_rows_.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "GPDiscrepancy":
+        model = cls(**data["params"])
+        model.gp_ = GPRSurrogate.from_dict(data["gp"])
+        model.n_features_in_ = model.gp_.n_features_in_
+        model.training_rows_ = np.asarray(data["training_rows"], int)
+        restore_inputs(model, data)
+        return model
+
+
+def _with_rows(state: dict, Z: np.ndarray, y: np.ndarray) -> GPRSurrogate:
+    """The GP of ``state`` (a GPRSurrogate's dict), its hyperparameters fixed, on standardized rows ``Z``
+    (GPRSurrogate.from_dict refits without optimizing)."""
+    return GPRSurrogate.from_dict({**state, "inputs": None, "X_train": Z.tolist(), "y_train": np.asarray(y).tolist()})

@@ -1,0 +1,161 @@
+"""The established alternatives to the paper's hybrid, fitted on the same information (DoE + in-support parts).
+
+Which peers there are, their classes and settings come from :mod:`hybridtwin.models.registry`. Each peer's
+class fits (``fit(X, y, X_low=, y_low=)``), scores its own training rows out-of-fold (``out_of_fold``:
+refitted without each fold, the hyperparameters held, as the XGBoost residual model keeps its tuned
+hyperparameters in its CV folds), predicts, and stores itself as JSON (``to_dict``/``from_dict``, no pickle).
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.crossval import training_subset
+from hybridtwin.io.files import in_support
+from hybridtwin.models import registry
+from hybridtwin.models.batches import chunks
+
+
+def peer_entry(name: str) -> registry.Model:
+    if name not in registry.PEER_NAMES:
+        raise ValueError(f"unknown peer {name!r}; one of {', '.join(registry.PEER_NAMES)}")
+    return registry.model(name)
+
+
+def estimator_class(name: str):
+    """The class a peer's registry entry names (``module:Class``), imported on first use."""
+    module, _, attribute = peer_entry(name).estimator.partition(":")
+    return getattr(importlib.import_module(module), attribute)
+
+
+def new_peer(name: str, settings: dict, seed: int):
+    """A peer's estimator with its settings from the config's ``peers`` section."""
+    arguments = {argument: settings[key] for key, argument in peer_entry(name).settings}
+    return estimator_class(name)(**arguments, random_state=seed)
+
+
+def as_target(name: str, value: np.ndarray, surrogate: np.ndarray) -> np.ndarray:
+    """A peer that predicts the residual (the surrogate's correction) gives the target with the surrogate added."""
+    return surrogate + value if registry.model(name).predicts == "residual" else value
+
+
+@dataclass
+class PeerFit:
+    model: object
+    # pred_<peer>: the final model; pred_<peer>_oof: the same, but out-of-fold on the parts it trained on
+    production: pd.DataFrame
+    fit_seconds: float
+    n_train: int
+
+
+def fit_peer(
+    name: str,
+    doe: pd.DataFrame,
+    production: pd.DataFrame,
+    residuals: pd.DataFrame,
+    inputs,
+    target: str,
+    settings: dict,
+    seed: int,
+    n_folds: int = 5,
+) -> PeerFit:
+    """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
+    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on the parts it trained on, out of
+    ``n_folds`` folds (the peer refitted without each fold, its hyperparameters fixed), as the hybrid is scored.
+
+    ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
+    residuals rule's table).
+    """
+    inputs = list(inputs)
+    spec = peer_entry(name)
+    inside = np.flatnonzero(in_support(residuals))
+    surrogate = residuals["pred_surrogate"].to_numpy(float)
+    learnt = residuals["residual_approx" if spec.predicts == "residual" else "measured"].to_numpy(float)
+    start = time.perf_counter()
+    model = new_peer(name, settings, seed)
+    model.fit(production.iloc[inside][inputs], learnt[inside], X_low=doe[inputs], y_low=doe[target])
+    seconds = time.perf_counter() - start
+    # a peer predicts row by row against all its training points: on a large log, a seeded sample of rows
+    predicted = training_subset(len(production), settings.get("max_predicted", len(production)), seed + 2)
+    final = np.full(len(production), np.nan)
+    final[predicted] = as_target(name, model.predict(production.iloc[predicted][inputs]), surrogate[predicted])
+    trained = inside[model.training_rows_]
+    honest = final.copy()
+    honest[trained] = as_target(name, model.out_of_fold(n_folds, seed), surrogate[trained])
+    return PeerFit(model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(trained))
+
+
+def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
+    """Every peer's prediction of the target at ``X`` (the matched cases, say), given the surrogate there.
+
+    With ``n_jobs`` > 1 the rows are shared among as many threads (numpy's kernels release the GIL),
+    each with its own copy of the model: SMT's MFK sets its kernel's length scales as it predicts.
+    """
+    stretches = chunks(len(X), n_jobs)
+    if len(stretches) <= 1:
+        return {name: as_target(name, model.predict(X), surrogate) for name, model in models.items()}
+    tasks = [
+        (name, model if i == 0 else copy.deepcopy(model), part)
+        for name, model in models.items()
+        for i, part in enumerate(stretches)
+    ]
+    with ThreadPoolExecutor(min(n_jobs, len(tasks))) as pool:
+        parts = list(pool.map(lambda t: as_target(t[0], t[1].predict(X.iloc[t[2]]), surrogate[t[2]]), tasks))
+    return {name: np.concatenate([p for (n, _, _), p in zip(tasks, parts) if n == name]) for name in models}
+
+
+def load_peer(name: str, data: dict):
+    """A stored peer (its JSON) rebuilt by its registry entry's class."""
+    return estimator_class(name).from_dict(data)
+
+
+def comparison_table(
+    measured,
+    predictions: dict[str, np.ndarray],
+    in_support,
+    test: np.ndarray,
+    matched_measured,
+    matched_predictions: dict[str, np.ndarray],
+    fits: dict[str, dict],
+    truth=None,
+    noise: float | None = None,
+) -> pd.DataFrame:
+    """peer_comparison.csv: every model on the same held-out production rows, in and out of the support.
+
+    ``predictions`` are honest (out-of-fold on a model's training parts, a peer's included, or from models never
+    trained on the row); the rows scored are the test blocks where every model has a value, so all models share
+    them.
+    ``fits``: per peer, its n_train (the in-support parts it trained on).
+    """
+    from hybridtwin.diagnosis.extension import gain_table
+
+    names = [m for m in registry.COMPARED if m in predictions]
+    rows = np.flatnonzero(test & np.all([np.isfinite(predictions[m]) for m in names], axis=0))
+    truth_rows = None if truth is None else np.asarray(truth, float)[rows]
+    matched = {m: np.asarray(matched_predictions.get(m, np.full(len(matched_measured), np.nan)), float) for m in names}
+    table = gain_table(
+        np.asarray(measured, float)[rows],
+        {m: predictions[m][rows] for m in names},
+        np.asarray(in_support, bool)[rows],
+        matched_measured,
+        matched,
+        truth_rows,
+        noise,
+    )
+    # (fit times vary from run to run, so they stay out of the table: results/peers/<peer>.json and the benchmarks)
+    table["n_train"] = table["model"].map({k: v["n_train"] for k, v in fits.items()})
+    table["evaluated_on"] = (
+        "production test rows (odd blocks of consecutive rows; the recommended model and the stack's weights were "
+        "chosen on the even blocks), the same rows for every model: in support out-of-fold for the hybrid and the "
+        "extension, and for a peer on the parts it trained on; out of support from models never trained there; matched "
+        "cases never used for fitting (the stack and the recommended model are not scored on them)"
+        + ("; truth = the demo's noise-free plant" if truth is not None else "")
+    )
+    return table

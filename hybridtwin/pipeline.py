@@ -1,0 +1,254 @@
+"""The workflow's steps, one function each, on tables in memory.
+
+The rule scripts read their inputs, call one step and write what it returns; the scenario harness
+(:mod:`hybridtwin.demo.scenarios`) calls the same steps on generated plants, so the banks measure the
+workflow's own method. Heavy libraries are imported inside the steps that need them: a small rule does
+not pay for XGBoost, Optuna or SMT.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.io.files import in_support
+from hybridtwin.models import registry
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What every step knows of the run: the inputs, the target, the seed, the CV folds, the threads and the
+    seeded row cap of each residual model's fit (``residual_model.max_train_rows``)."""
+
+    inputs: tuple[str, ...]
+    target: str = ""
+    seed: int = 0
+    folds: int = 5
+    n_jobs: int = 1
+    max_train_rows: int | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "inputs", tuple(self.inputs))
+
+    @classmethod
+    def from_config(cls, config: dict, n_jobs: int = 1) -> "Spec":
+        return cls(
+            tuple(config["columns"]["inputs"]),
+            config["columns"]["target"],
+            int(config["seed"]),
+            int(config["cv"]["folds"]),
+            n_jobs,
+            int(config["residual_model"]["max_train_rows"]),
+        )
+
+
+# ---------------------------------------------------------------- the paper's steps
+
+
+@dataclass
+class Support:
+    gate: object  # the fitted KNNSupportGate
+    table: pd.DataFrame  # knn_distance, in_support per production row
+
+
+def support(doe: pd.DataFrame, production: pd.DataFrame, spec: Spec, k: int, percentile: float, standardizer=None):
+    """Steps 1-2: the kNN support gate in DoE-standardized space, and every production row's distance and verdict."""
+    from hybridtwin.paper.gate import KNNSupportGate
+
+    gate = KNNSupportGate(k=k, percentile=percentile, standardizer=standardizer).fit(doe[list(spec.inputs)])
+    return Support(gate, gate.support_table(production[list(spec.inputs)]))
+
+
+def surrogate(doe: pd.DataFrame, spec: Spec, n_restarts: int):
+    """Step 3: the GPR surrogate of the simulator, fitted on the whole DoE."""
+    from hybridtwin.paper.surrogate import GPRSurrogate
+
+    model = GPRSurrogate(n_restarts=n_restarts, random_state=spec.seed)
+    return model.fit(doe[list(spec.inputs)], doe[spec.target])
+
+
+def residuals(surrogate_model, production: pd.DataFrame, spec: Spec, inside) -> pd.DataFrame:
+    """Step 4: surrogate predictions and approximate residuals of every production row, with its verdict."""
+    from hybridtwin.paper.residual import approximate_residuals
+
+    table = approximate_residuals(surrogate_model, production, spec.inputs, spec.target)
+    table["in_support"] = np.asarray(inside, bool)
+    return table
+
+
+def _training(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec, training: str):
+    from hybridtwin.paper.residual import training_rows
+
+    rows = training_rows(residual_table["in_support"], training)
+    return rows, production.loc[rows, list(spec.inputs)], residual_table.loc[rows, "residual_approx"].to_numpy(float)
+
+
+def residual_model(production, residual_table, spec: Spec, training: str, params: dict):
+    """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all)."""
+    from hybridtwin.paper.residual import make_model
+
+    _, X, y = _training(production, residual_table, spec, training)
+    model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
+    return model.fit(X.to_numpy(float), y)
+
+
+@dataclass
+class ResidualCV:
+    per_fold: pd.DataFrame
+    oof: pd.DataFrame  # row, pred_residual_oof, fold: the split the extension is scored on too
+    table: pd.DataFrame  # Table 3's row
+
+
+def residual_cv(production, residual_table, spec: Spec, training: str, params: dict) -> ResidualCV:
+    """Step 5b: K-fold CV of the residual model with the tuned hyperparameters, on a split other than the
+    tuning's (so the score is not the winning trial's own)."""
+    from hybridtwin.crossval import cross_validate, cv_table, fold_ids
+    from hybridtwin.paper.residual import capped_note, evaluation_seed, make_model
+
+    rows, X, y = _training(production, residual_table, spec, training)
+    model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
+    seed = evaluation_seed(spec.seed)
+    per_fold, oof = cross_validate(model, X, y, spec.folds, seed)
+    fold = fold_ids(len(y), spec.folds, seed)
+    table = cv_table(
+        per_fold,
+        y,
+        oof,
+        f"XGBoost residual model ({training} train)",
+        f"approximate residuals of {len(y)} production rows ({'in support' if training == 'filtered' else 'all'}), "
+        f"{spec.folds}-fold CV on a split other than the tuning's; hyperparameters were tuned by CV on the "
+        "in-support rows" + capped_note(spec.max_train_rows, len(y)),
+    )
+    return ResidualCV(per_fold, pd.DataFrame({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
+
+
+def hybrid_predictions(production, residual_table, support_table, models: dict, oof: dict, spec: Spec):
+    """Every production row's surrogate and hybrids (final and out-of-fold), from the two residual models
+    (``models``/``oof`` by training set: 'filtered', 'unfiltered')."""
+    from hybridtwin.paper.tables import production_predictions
+
+    X = production[list(spec.inputs)].to_numpy(float)
+    return production_predictions(
+        residual_table,
+        support_table,
+        models["filtered"].predict(X),
+        models["unfiltered"].predict(X),
+        oof["filtered"],
+        oof["unfiltered"],
+    )
+
+
+# ---------------------------------------------------------------- beyond the paper
+
+
+def diagnose(production, residual_table, spec: Spec, settings, surrogate_noise: float):
+    """The diagnosis of the in-support approximate residuals; ``settings``: :class:`diagnosis.Settings`."""
+    from hybridtwin import diagnosis
+    from hybridtwin.paper.surrogate import surrogate_latent_std
+
+    inside = in_support(residual_table)
+    return diagnosis.diagnose(
+        production.loc[inside].drop(columns=[spec.target]),
+        residual_table.loc[inside, "residual_approx"],
+        list(spec.inputs),
+        [spec.target],
+        settings,
+        surrogate_std=surrogate_latent_std(residual_table.loc[inside, "pred_surrogate_std"], surrogate_noise),
+    )
+
+
+def extension_fitting(spec: Spec, params: dict):
+    """How the extension's models are fitted: the remainder is an XGBoost model with the tuned ``params``."""
+    from hybridtwin.diagnosis.extension import Fitting
+    from hybridtwin.paper.residual import make_model
+
+    def make_xgb():  # each fit samples its rows itself (Fitting.max_rows), the forms' as the trees'
+        return make_model(params, spec.seed, spec.n_jobs)
+
+    return Fitting(tuple(spec.inputs), make_xgb, spec.max_train_rows, spec.seed)
+
+
+def extension_parts(production, residual_table, hybrid_table):
+    """What the extension learns from: the parts, their residuals and the paper's hybrid (out-of-fold in the
+    support, the final model outside)."""
+    from hybridtwin.diagnosis.extension import Parts
+
+    return Parts(production, residual_table, hybrid_table[registry.HYBRID.oof_column].to_numpy(float))
+
+
+def extend(parts, terms, fitting, splits, choosing, matched=None):
+    """The extension with the named causes, the extended hybrid and the guard; scored out of fold."""
+    from hybridtwin.diagnosis.extension import evaluate
+
+    return evaluate(parts, terms, fitting, splits, choosing, matched)
+
+
+def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict):
+    """One peer (:data:`registry.PEERS`) on the DoE and the in-support parts, with its honest values."""
+    from hybridtwin.models.peers import fit_peer
+
+    return fit_peer(name, doe, production, residual_table, spec.inputs, spec.target, settings, spec.seed, spec.folds)
+
+
+def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame, peer_tables) -> pd.DataFrame:
+    """results/predictions/production.csv: the hybrids', the extension's and the peers' columns side by side."""
+    parts = [hybrid_table, extension_table, *peer_tables]
+    lengths = {len(part) for part in parts}
+    if len(lengths) != 1:
+        raise RuntimeError(f"prediction tables of different lengths: {sorted(lengths)}")
+    return pd.concat([part.reset_index(drop=True) for part in parts], axis=1)
+
+
+def calibrate(predictions, production, doe, spec: Spec, threshold: float, settings: dict, truth=None):
+    """Regions, intervals and the recommended model per region (``settings``: the config's ``intervals``)."""
+    from hybridtwin.answers import intervals
+
+    doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in spec.inputs}
+    return intervals.calibrate(
+        predictions,
+        production[list(spec.inputs)],
+        doe_range,
+        threshold,
+        settings["level"],
+        settings["distance_bins"],
+        settings["blocks"],
+        spec.seed,
+        truth,
+    )
+
+
+def matched_predictions(matched, spec: Spec, extension_table, cases, peer_models: dict, surrogate_model) -> dict:
+    """Every model at the matched cases: the extension's table (surrogate, hybrid, extended, extended hybrid), the
+    gated hybrid from the matched check's ``cases`` and the peers (``peer_models`` by name)."""
+    from hybridtwin.models.peers import predictions_at
+
+    inputs = matched[list(spec.inputs)]
+    return {
+        **extension_table.to_dict("series"),
+        registry.HYBRID_GATED.name: cases[registry.HYBRID_GATED.column],
+        **predictions_at(peer_models, inputs, surrogate_model.predict(inputs)),
+    }
+
+
+def comparison(
+    predictions, calibrated, level: float, matched_measured, matched: dict, fits: dict, truth=None, noise=None
+):
+    """peer_comparison.csv: every model and the recommended one on the same held-out production rows."""
+    from hybridtwin.answers.intervals import recommended_prediction
+    from hybridtwin.models.peers import comparison_table
+
+    picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
+    models = {**calibrated.honest, registry.RECOMMENDED: picked["pred_recommended"].to_numpy(float)}
+    return comparison_table(
+        predictions["measured"],
+        models,
+        in_support(predictions),
+        ~calibrated.calibration,
+        matched_measured,
+        matched,
+        fits,
+        truth,
+        noise,
+    )
