@@ -25,13 +25,14 @@ MEASURE = """
 import json, resource, sys, time
 import pandas as pd
 from hybridtwin.io import data
+from hybridtwin.io.reading import CsvFormat
 path, how, config = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
 start = time.perf_counter()
 if how == "pandas":
     frame = pd.read_csv(path)
 else:
     columns = data.Columns.from_config(config["columns"])
-    frame = data.load_production(path, columns, data.CsvFormat.from_config(config["csv"]))
+    frame = data.load_production(path, columns, CsvFormat.from_config(config["csv"]))
 seconds = time.perf_counter() - start
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 print(json.dumps({"seconds": seconds, "peak_gib": peak, "rows": len(frame)}))

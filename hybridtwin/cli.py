@@ -16,7 +16,8 @@ import sys
 import pandas as pd
 
 from hybridtwin.answers.predictor import Predictor
-from hybridtwin.io.data import SEPARATORS, CsvFormat, InputError
+from hybridtwin.io.errors import InputError
+from hybridtwin.io.reading import SEPARATORS, CsvFormat
 
 
 def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:

@@ -203,10 +203,10 @@ def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame
 
 def calibrate(predictions, production, doe, spec: Spec, threshold: float, settings: dict, truth=None):
     """Regions, intervals and the recommended model per region (``settings``: the config's ``intervals``)."""
-    from hybridtwin.answers import intervals
+    from hybridtwin.answers import coverage
 
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in spec.inputs}
-    return intervals.calibrate(
+    return coverage.calibrate(
         predictions,
         production[list(spec.inputs)],
         doe_range,
@@ -240,7 +240,7 @@ def comparison(
     from hybridtwin.models.peers import comparison_table
 
     picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
-    models = {**calibrated.honest, registry.RECOMMENDED: picked["pred_recommended"].to_numpy(float)}
+    models = {**calibrated.honest, registry.RECOMMENDED: picked[registry.RECOMMENDED_COLUMN].to_numpy(float)}
     return comparison_table(
         predictions["measured"],
         models,

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin import pipeline
-from hybridtwin.answers.intervals import calibration_rows
+from hybridtwin.answers.regions import calibration_rows
 from hybridtwin.crossval import written_splits
 from hybridtwin.diagnosis import extension
 from hybridtwin.diagnosis.causes import Term

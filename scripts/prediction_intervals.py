@@ -2,7 +2,7 @@
 manifest."""
 
 from hybridtwin import pipeline
-from hybridtwin.answers import intervals, predictor
+from hybridtwin.answers import coverage, predictor
 from hybridtwin.io import files
 from hybridtwin.io.files import read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
@@ -40,7 +40,7 @@ def main(snakemake):
         predictions, result, level, matched[p.matched_measured], at_matched, fits, truth, noise
     )
     files.write_csv(comparison, snakemake.output.comparison)
-    shown = intervals.figure_data(result, predictions["measured"], predictions["knn_distance"], level, spec.seed)
+    shown = coverage.figure_data(result, predictions["measured"], predictions["knn_distance"], level, spec.seed)
     files.save_figure(
         plots.prediction_intervals(**shown, threshold=threshold, level=level, unit=p.unit), snakemake.output.figure
     )

@@ -3,13 +3,14 @@
 import warnings
 
 from hybridtwin.io import data, files
+from hybridtwin.io.reading import DataWarning
 from hybridtwin.io.runner import run
 
 
 def main(snakemake):
     role = snakemake.wildcards.role
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", data.DataWarning)
+        warnings.simplefilter("always", DataWarning)
         frame = data.load_datasets(snakemake.params.settings, roles=(role,))[role]
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)

@@ -22,17 +22,9 @@ import pytest
 import yaml
 
 from hybridtwin.io.config import check
-from hybridtwin.io.data import (
-    Columns,
-    CsvFormat,
-    DataWarning,
-    InputError,
-    check_support,
-    load_datasets,
-    read_csv,
-    require_columns,
-    warn_matched_outside,
-)
+from hybridtwin.io.data import Columns, check_support, load_datasets, warn_matched_outside
+from hybridtwin.io.errors import InputError
+from hybridtwin.io.reading import CsvFormat, DataWarning, read_csv, require_columns
 from hybridtwin.paper.gate import KNNSupportGate
 
 from .conftest import run_command
@@ -150,7 +142,7 @@ def test_clean_data_loads_without_warning(case):
 
 @pytest.mark.parametrize("sep, decimal", [(",", "."), (";", ",")])
 def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, monkeypatch, sep, decimal):
-    from hybridtwin.io import data
+    from hybridtwin.io import reading
 
     production = case.frames["production"]
     production["stamp"] = pd.date_range("2026-01-01", periods=30, freq="min").astype(str)
@@ -158,9 +150,9 @@ def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, mo
     case.settings["csv"] = {"sep": sep, "decimal": decimal}
     case.write(sep=sep, decimal=decimal)
     numeric = [*INPUTS, TARGET]
-    assert data._read_clean(case.path("production"), numeric, CsvFormat(sep, decimal)) is not None
+    assert reading._read_clean(case.path("production"), numeric, CsvFormat(sep, decimal)) is not None
     fast = case.load()["production"]
-    monkeypatch.setattr(data, "_read_clean", lambda *args: None)
+    monkeypatch.setattr(reading, "_read_clean", lambda *args: None)
     careful = case.load()["production"]
     pd.testing.assert_frame_equal(fast, careful, check_index_type=False)
     assert fast["stroke"].dtype == careful["stroke"].dtype and fast["stamp"].iloc[0] == "2026-01-01 00:00:00"
@@ -168,20 +160,20 @@ def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, mo
 
 @pytest.mark.parametrize("text", ["", "nan", "inf", "1,5", "12 mm"])
 def test_the_one_pass_reader_leaves_any_doubtful_number_to_the_careful_reader(case, text):
-    from hybridtwin.io import data
+    from hybridtwin.io import reading
 
     case.set_cell("production", 4, "die_temp_c", text)
-    assert data._read_clean(case.path("production"), [*INPUTS, TARGET], CsvFormat()) is None
+    assert reading._read_clean(case.path("production"), [*INPUTS, TARGET], CsvFormat()) is None
 
 
 def test_the_one_pass_reader_leaves_wide_and_blank_rows_to_the_careful_reader(case):
-    from hybridtwin.io import data
+    from hybridtwin.io import reading
 
     lines = case.path("production").read_text().splitlines()
     numeric = [*INPUTS, TARGET]
     # a short row (its coil id missing) reads as the careful reader reads it: an empty cell
     case.write_text("production", "\n".join([*lines[:3], lines[3].rsplit(",", 1)[0], *lines[4:]]) + "\n")
-    assert data._read_clean(case.path("production"), numeric, CsvFormat())["coil_id"].iloc[2] == ""
+    assert reading._read_clean(case.path("production"), numeric, CsvFormat())["coil_id"].iloc[2] == ""
     assert read_csv(case.path("production"), "production")["coil_id"].iloc[2] == ""
     for broken in (
         [lines[0], lines[1] + ",extra", *lines[2:]],  # a first row wider than the header
@@ -190,7 +182,7 @@ def test_the_one_pass_reader_leaves_wide_and_blank_rows_to_the_careful_reader(ca
         [*lines[:3], lines[3].replace("C10", "C1\x000"), *lines[4:]],  # a NUL byte in a text cell
     ):
         case.write_text("production", "\n".join(broken) + "\n")
-        assert data._read_clean(case.path("production"), numeric, CsvFormat()) is None
+        assert reading._read_clean(case.path("production"), numeric, CsvFormat()) is None
 
 
 # --- files: missing, misspelled, not a file, empty, binary, not UTF-8 -------------------------------------------

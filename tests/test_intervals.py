@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin.answers import intervals
+from hybridtwin.answers import coverage, intervals, regions
 
 LEVEL = 0.9
 Z90 = 1.6449  # two-sided 90% of a standard normal
@@ -23,15 +23,15 @@ def plant(n=40_000, seed=11):
 
 
 def test_calibration_and_test_rows_alternate_in_blocks():
-    calibration = intervals.calibration_rows(1000, 10)
+    calibration = regions.calibration_rows(1000, 10)
     assert calibration.sum() == 500
     assert calibration[:100].all() and not calibration[100:200].any() and calibration[200:300].all()
 
 
 def test_test_rows_never_reach_the_intervals_or_the_choice():
     inside, distance, sd, truth, measured = plant(n=6000)
-    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, [2.0])
-    calibration = intervals.calibration_rows(len(measured), 10)
+    region = regions.regions(inside, np.zeros(len(inside), bool), distance, [2.0])
+    calibration = regions.calibration_rows(len(measured), 10)
     honest = {"hybrid": truth, "extended": truth + 0.5}
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [2.0], distance)
     spoiled = np.where(calibration, measured, measured + 1000.0)  # only the test rows change
@@ -62,7 +62,7 @@ def test_a_model_without_a_value_on_a_row_gives_way_to_the_next_in_its_regions_r
 
 
 def test_a_row_inside_the_gate_but_beyond_the_doe_range_is_out_of_support():
-    labels = intervals.regions(
+    labels = regions.regions(
         in_support=[True, True, False, False],
         beyond_range=[False, True, False, False],
         distance=[0.5, 0.6, 1.5, 2.5],
@@ -82,10 +82,10 @@ def test_a_row_beyond_the_doe_range_inside_the_gate_takes_the_supports_model_and
     truth = np.zeros(n)
     measured = truth + rng.normal(0, np.where(inside, 1.0, 3.0))
     honest = {"hybrid": np.where(inside, 0.0, 2.0), "extended": np.where(inside, 2.0, 0.0)}
-    region = intervals.Regions.of(inside, beyond, distance, [])
+    region = regions.Regions.of(inside, beyond, distance, [])
     assert region.choice[beyond].tolist() == ["in_support"] * beyond.sum()
     assert region.interval[beyond].tolist() == ["out_of_support_1"] * beyond.sum()
-    calibration = intervals.calibration_rows(n, 10)
+    calibration = regions.calibration_rows(n, 10)
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], distance)
     picked = intervals.recommended_prediction(fitted, fitted.with_stack(honest, region), region, LEVEL)
     in_support_model = fitted.recommended["in_support"]
@@ -102,28 +102,28 @@ def test_a_row_beyond_the_doe_range_inside_the_gate_takes_the_supports_model_and
 def test_outside_range_is_in_the_inputs_own_unit_and_named():
     frame = pd.DataFrame({"die_temp_c": [40.0, 58.5, 10.0], "shim_mm": [0.2, 0.2, 0.2]})
     doe_range = {"die_temp_c": (15.0, 55.0), "shim_mm": (0.0, 0.6)}
-    beyond = intervals.outside_range(frame, doe_range)
+    beyond = regions.outside_range(frame, doe_range)
     assert beyond["die_temp_c"].tolist() == pytest.approx([0.0, 3.5, -5.0])
-    texts = intervals.describe_outside(beyond, doe_range)
+    texts = regions.describe_outside(beyond, doe_range)
     assert texts == ["", "die_temp_c 3.5 above the DoE's max 55", "die_temp_c 5 below the DoE's min 15"]
     frame.loc[1, "shim_mm"] = 0.75
-    assert intervals.describe_outside(intervals.outside_range(frame, doe_range), doe_range)[1] == (
+    assert regions.describe_outside(regions.outside_range(frame, doe_range), doe_range)[1] == (
         "die_temp_c 3.5 above the DoE's max 55; shim_mm 0.15 above the DoE's max 0.6"
     )
 
 
 def test_distance_bins_hold_enough_calibration_rows():
-    assert intervals.distance_edges(np.linspace(1, 2, 250), 4) == pytest.approx([1.5])  # 250 rows: 2 bins of 100+
-    assert intervals.distance_edges(np.linspace(1, 2, 50), 4) == []
-    assert len(intervals.distance_edges(np.linspace(1, 2, 4000), 4)) == 3
+    assert regions.distance_edges(np.linspace(1, 2, 250), 4) == pytest.approx([1.5])  # 250 rows: 2 bins of 100+
+    assert regions.distance_edges(np.linspace(1, 2, 50), 4) == []
+    assert len(regions.distance_edges(np.linspace(1, 2, 4000), 4)) == 3
 
 
 def test_intervals_by_region_hold_their_level_where_one_pooled_interval_does_not():
     inside, distance, sd, truth, measured = plant()
-    edges = intervals.distance_edges(distance[~inside], 4)
-    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
-    calibration = intervals.calibration_rows(len(measured), 20)
-    table = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, truth=truth)
+    edges = regions.distance_edges(distance[~inside], 4)
+    region = regions.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    calibration = regions.calibration_rows(len(measured), 20)
+    table = coverage.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, truth=truth)
     by_region = table[(table["model"] == "hybrid") & (table["calibration"] == "by_region") & (table["region"] != "all")]
     assert len(by_region) == 5
     assert by_region["coverage"].between(LEVEL - 0.02, LEVEL + 0.02).all(), by_region
@@ -137,50 +137,50 @@ def test_intervals_by_region_hold_their_level_where_one_pooled_interval_does_not
 
 def test_a_long_log_is_scored_on_a_seeded_sample_of_test_rows_per_region_and_says_so(monkeypatch):
     inside, distance, sd, truth, measured = plant()
-    edges = intervals.distance_edges(distance[~inside], 4)
-    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    edges = regions.distance_edges(distance[~inside], 4)
+    region = regions.regions(inside, np.zeros(len(inside), bool), distance, edges)
     assert region[inside].tolist() == ["in_support"] * inside.sum()
     assert set(region[~inside]) == {f"out_of_support_{b}" for b in range(1, 5)}
     assert (region[~inside & (distance > edges[-1])] == "out_of_support_4").all()
-    calibration = intervals.calibration_rows(len(measured), 20)
-    whole = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
+    calibration = regions.calibration_rows(len(measured), 20)
+    whole = coverage.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
     assert "seeded sample" not in whole["evaluated_on"].iloc[0]
-    monkeypatch.setattr(intervals, "MAX_TEST_ROWS", 2000)
-    sampled = intervals.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
+    monkeypatch.setattr(coverage, "MAX_TEST_ROWS", 2000)
+    sampled = coverage.coverage_table(measured, {"hybrid": truth}, region, calibration, edges, 1.0, LEVEL, seed=3)
     assert (sampled["n_test"] == 2000).all() and (whole["n_test"] > 2000).all()
     assert "a seeded sample of 2,000 test rows per region" in sampled["evaluated_on"].iloc[0]
     # the sample's coverage estimates the whole's
     assert np.abs(sampled["coverage"] - whole["coverage"]).max() < 0.03
     # by hand: the in-support row of the sample
-    rows = intervals._subsample(np.flatnonzero(~calibration & inside), 2000, 3)
+    rows = intervals.subsample(np.flatnonzero(~calibration & inside), 2000, 3)
     fitted = intervals.RegionIntervals.fit(measured, {"hybrid": truth}, region, calibration, edges, seed=3)
     lower, upper = fitted.interval("hybrid", truth[rows], region[rows], LEVEL)
     row = sampled[(sampled["region"] == "in_support") & (sampled["model"] == "hybrid")].iloc[0]
     assert row["coverage"] == np.mean((measured[rows] >= lower) & (measured[rows] <= upper))
     # a model with values on a few rows only (a peer on a long log) is sampled among those rows
     peer = np.where(np.arange(len(truth)) % 2 == 0, truth, np.nan)
-    both = intervals.coverage_table(measured, {"hybrid": truth, "peer": peer}, region, calibration, edges, 1, LEVEL)
+    both = coverage.coverage_table(measured, {"hybrid": truth, "peer": peer}, region, calibration, edges, 1, LEVEL)
     scored = both[(both["model"] == "peer") & (both["region"] != "all") & (both["calibration"] == "by_region")]
     valued = [np.sum(~calibration & (region == name) & np.isfinite(peer)) for name in scored["region"]]
     assert scored["n_test"].tolist() == [min(n, 2000) for n in valued] and max(valued) > 2000
 
 
 def test_a_distance_on_a_bin_edge_belongs_to_the_nearer_bin():
-    labels = intervals.regions([True, False, False, False], np.zeros(4, bool), [0.5, 1.0, 2.0, 2.5], [1.0, 2.0])
+    labels = regions.regions([True, False, False, False], np.zeros(4, bool), [0.5, 1.0, 2.0, 2.5], [1.0, 2.0])
     assert labels.tolist() == ["in_support", "out_of_support_2", "out_of_support_3", "out_of_support_3"]
 
 
 def test_the_figure_shows_each_shown_rows_own_error_and_region(monkeypatch):
     inside, distance, sd, truth, measured = plant(n=6000)
-    edges = intervals.distance_edges(distance[~inside], 3)
-    region = intervals.Regions.same(intervals.regions(inside, np.zeros(len(inside), bool), distance, edges))
-    calibration = intervals.calibration_rows(len(measured), 20)
+    edges = regions.distance_edges(distance[~inside], 3)
+    region = regions.Regions.same(regions.regions(inside, np.zeros(len(inside), bool), distance, edges))
+    calibration = regions.calibration_rows(len(measured), 20)
     honest = {"hybrid": truth + 0.5}
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, edges, distance, 0)
-    table = intervals.coverage_table(measured, honest, region, calibration, edges, 1.0, LEVEL)
-    calibrated = intervals.Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
-    monkeypatch.setattr(intervals, "MAX_TEST_ROWS", 500)  # fewer rows than shown: the shown ones are added
-    shown = intervals.figure_data(calibrated, measured, distance, LEVEL, seed=2, n_shown=800)
+    table = coverage.coverage_table(measured, honest, region, calibration, edges, 1.0, LEVEL)
+    calibrated = coverage.Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
+    monkeypatch.setattr(coverage, "MAX_TEST_ROWS", 500)  # fewer rows than shown: the shown ones are added
+    shown = coverage.figure_data(calibrated, measured, distance, LEVEL, seed=2, n_shown=800)
     test = np.flatnonzero(~calibration)
     rows = np.sort(np.random.default_rng(2).choice(test, 800, replace=False))
     np.testing.assert_allclose(shown["distance"], distance[rows])
@@ -209,9 +209,9 @@ def test_the_recommended_model_is_the_better_one_in_each_region():
         "extended": truth + np.where(inside, rng.normal(0, 3, len(truth)), 0.0),
         "hybrid_unfiltered": truth,
     }  # perfect, but never recommended (it trained out of support)
-    edges = intervals.distance_edges(distance[~inside], 2)
-    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, edges)
-    calibration = intervals.calibration_rows(len(measured), 20)
+    edges = regions.distance_edges(distance[~inside], 2)
+    region = regions.regions(inside, np.zeros(len(inside), bool), distance, edges)
+    calibration = regions.calibration_rows(len(measured), 20)
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, edges, distance)
     better = {"in_support": "hybrid", "out_of_support_1": "extended", "out_of_support_2": "extended"}
     for name, model in better.items():
@@ -235,8 +235,8 @@ def test_the_recommended_model_is_the_better_one_in_each_region():
 
 def test_a_wider_level_gives_a_wider_interval_and_an_unknown_region_none():
     inside, distance, sd, truth, measured = plant(n=5000)
-    region = intervals.regions(inside, np.zeros(len(inside), bool), distance, [])
-    calibration = intervals.calibration_rows(len(measured), 10)
+    region = regions.regions(inside, np.zeros(len(inside), bool), distance, [])
+    calibration = regions.calibration_rows(len(measured), 10)
     fitted = intervals.RegionIntervals.fit(measured, {"hybrid": truth}, region, calibration, [], distance)
     narrow = np.subtract(*fitted.interval("hybrid", truth[:5], region[:5], 0.8)[::-1])
     wide = np.subtract(*fitted.interval("hybrid", truth[:5], region[:5], 0.95)[::-1])
@@ -295,7 +295,7 @@ def _predictions_table(n=4000, seed=2):
 def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     table, inputs, truth = _predictions_table()
     n, level = len(table), 0.8
-    calibrated = intervals.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 3, 8, 0, truth=truth)
+    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 3, 8, 0, truth=truth)
     inside = table["in_support"].to_numpy()
     beyond = inputs["t"].to_numpy() > 10
     distance, measured = table["knn_distance"].to_numpy(), table["measured"].to_numpy()
@@ -372,7 +372,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
         f"out of support, distance {edges[0]:.3g} to {edges[1]:.3g}"
     )
     # one distance bin, no truth
-    one_bin = intervals.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 1, 8, 0).table
+    one_bin = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 1, 8, 0).table
     assert set(one_bin["region"]) == {"in_support", "out_of_support_1", "all"}
     labels = dict(zip(one_bin["region"], one_bin["region_label"]))
     assert labels["out_of_support_1"] == "out of support (every distance)"
@@ -401,8 +401,8 @@ def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
         "surrogate": 0.5 * truth,
         "hybrid_unfiltered": truth,  # no stack member: never recommended
     }
-    region = intervals.regions(inside, np.zeros(n, bool), np.where(inside, 0.5, 2.0), [])
-    calibration = intervals.calibration_rows(n, 20)
+    region = regions.regions(inside, np.zeros(n, bool), np.where(inside, 0.5, 2.0), [])
+    calibration = regions.calibration_rows(n, 20)
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], None)
     members = ["extended", "hybrid", "surrogate"]
     rows = np.flatnonzero(calibration & inside)

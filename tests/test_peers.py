@@ -6,7 +6,7 @@ import pytest
 from sklearn.gaussian_process import GaussianProcessRegressor
 
 from hybridtwin import crossval
-from hybridtwin.answers import intervals
+from hybridtwin.answers import intervals, regions
 from hybridtwin.models import batches, peers, registry
 from hybridtwin.models.cokriging import CoKriging
 from hybridtwin.models.gp_discrepancy import GPDiscrepancy
@@ -70,7 +70,7 @@ def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():
     # where a model has no honest value (NaN; a peer beyond its sample of a long log) the row must not count
     peer = np.where(trained_on, np.nan, measured + rng.normal(0, 2.0, n))
     region = np.full(n, "in_support", dtype=object)
-    calibration = intervals.calibration_rows(n, 10)
+    calibration = regions.calibration_rows(n, 10)
     fitted = intervals.RegionIntervals.fit(measured, {"hybrid": good, "gp_discrepancy": peer}, region, calibration, [])
     assert fitted.recommended["in_support"] in ("hybrid", "stack")
     assert len(fitted.calibration["gp_discrepancy"]["in_support"]) == int(np.sum(calibration & ~trained_on))

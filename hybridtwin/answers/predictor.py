@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hybridtwin.answers import intervals
+from hybridtwin.answers import intervals, regions
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import data, files
+from hybridtwin.io.reading import CsvFormat
 from hybridtwin.models import compose, peers, registry
 from hybridtwin.models.batches import available_cores
 from hybridtwin.paper import residual
@@ -42,7 +43,7 @@ ANSWER_COLUMNS = (
     registry.SURROGATE.column,
     f"{registry.SURROGATE.column}_std",
     *(model.column for model in registry.MODELS if model is not registry.SURROGATE),
-    "pred_recommended",
+    registry.RECOMMENDED_COLUMN,
     "recommended_model",
     "pred_lower",
     "pred_upper",
@@ -89,7 +90,7 @@ class Predictor:
     inputs: list[str]
     target: str
     unit: str
-    csv: data.CsvFormat
+    csv: CsvFormat
     doe_range: dict[str, tuple[float, float]]
     surrogate: GPRSurrogate
     gate: KNNSupportGate
@@ -127,9 +128,9 @@ class Predictor:
         spec = files.read_json(folder / MANIFEST)
         inputs = list(spec["inputs"])
         model_files = {key: folder / name for key, name in spec["files"].items()}
-        surrogate = GPRSurrogate.from_dict(files.read_json(model_files["surrogate"]))
+        surrogate = GPRSurrogate.from_dict(files.read_json(model_files[registry.SURROGATE.name]))
         gate = KNNSupportGate.from_dict(files.read_json(model_files["gate"]))
-        for name, model in (("surrogate", surrogate), ("gate", gate)):
+        for name, model in ((registry.SURROGATE.name, surrogate), ("gate", gate)):
             if input_names(model) is not None and input_names(model) != inputs:
                 raise ValueError(
                     f"{model_files[name]}: fitted on inputs {input_names(model)}, the manifest lists {inputs}"
@@ -138,7 +139,7 @@ class Predictor:
             inputs=inputs,
             target=spec["target"],
             unit=spec["unit"],
-            csv=data.CsvFormat(**spec["csv"]),
+            csv=CsvFormat(**spec["csv"]),
             doe_range={name: tuple(bounds) for name, bounds in spec["doe_range"].items()},
             surrogate=surrogate,
             gate=gate,
@@ -224,14 +225,14 @@ class Predictor:
         X = self._inputs(frame)
         distance = self.gate.distance(X)
         in_support = self.gate.within(distance)
-        beyond = intervals.outside_range(X, self.doe_range)
+        beyond = regions.outside_range(X, self.doe_range)
         beyond_range = (beyond != 0).any(axis=1).to_numpy()
-        region = intervals.Regions.of(in_support, beyond_range, distance, self.intervals.edges)
+        region = regions.Regions.of(in_support, beyond_range, distance, self.intervals.edges)
         predictions = self.intervals.with_stack(self.predictions(frame, in_support, with_peers, n_jobs), region)
         answers = {
             "in_support": in_support,
             "knn_distance": distance,
-            "outside_doe_range": intervals.describe_outside(beyond, self.doe_range),
+            "outside_doe_range": regions.describe_outside(beyond, self.doe_range),
             **{f"beyond_{name}": beyond[name].to_numpy() for name in self.inputs},
             "in_domain": in_support & ~beyond_range,
             "region": region.interval,
@@ -263,11 +264,11 @@ class Predictor:
             )
         return out
 
-    def read(self, path, fmt: data.CsvFormat | None = None) -> pd.DataFrame:
+    def read(self, path, fmt: CsvFormat | None = None) -> pd.DataFrame:
         """A what-if CSV read and checked as the workflow reads its inputs."""
         fmt = fmt or self.csv
         return data.load_whatif(path, self.inputs, fmt)
 
-    def write(self, answers: pd.DataFrame, path, fmt: data.CsvFormat | None = None) -> None:
+    def write(self, answers: pd.DataFrame, path, fmt: CsvFormat | None = None) -> None:
         fmt = fmt or self.csv
         files.write_csv(answers, path, sep=fmt.sep, decimal=fmt.decimal)

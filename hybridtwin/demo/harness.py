@@ -97,7 +97,7 @@ class Run:
     @cached_property
     def choosing(self) -> np.ndarray:
         """The even blocks of consecutive parts: they choose (the guard, the recommended model); the odd ones score."""
-        from hybridtwin.answers.intervals import calibration_rows
+        from hybridtwin.answers.regions import calibration_rows
 
         return calibration_rows(len(self.production), self.config["intervals"]["blocks"])
 

@@ -428,7 +428,7 @@ def compare_models(
     level = run.config["intervals"]["level"]
     honest[registry.RECOMMENDED] = recommended_prediction(
         calibrated.intervals, calibrated.honest, calibrated.region, level
-    )["pred_recommended"].to_numpy()
+    )[registry.RECOMMENDED_COLUMN].to_numpy()
     scored = truth_scores(case.truth, honest, ~calibrated.calibration, run.inside)
     scored["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
     scored["n_in_support"] = int(run.inside.sum())

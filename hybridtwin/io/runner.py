@@ -11,7 +11,7 @@ import logging
 import sys
 import warnings
 
-from hybridtwin.io.data import InputError
+from hybridtwin.io.errors import InputError
 
 
 def run(snakemake, main) -> None:

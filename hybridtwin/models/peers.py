@@ -76,7 +76,7 @@ def fit_peer(
     inputs = list(inputs)
     spec = peer_entry(name)
     inside = np.flatnonzero(in_support(residuals))
-    surrogate = residuals["pred_surrogate"].to_numpy(float)
+    surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
     learnt = residuals["residual_approx" if spec.predicts == "residual" else "measured"].to_numpy(float)
     start = time.perf_counter()
     model = new_peer(name, settings, seed)

@@ -131,6 +131,7 @@ PEER_NAMES: tuple[str, ...] = tuple(model.name for model in PEERS)
 RECOMMENDABLE: tuple[str, ...] = tuple(model.name for model in MODELS if model.recommendable)
 # the recommended model per row, as a pseudo-model of the comparison tables
 RECOMMENDED = "recommended"
+RECOMMENDED_COLUMN = f"pred_{RECOMMENDED}"
 COMPARED: tuple[str, ...] = (*(m.name for m in MODELS if m is not HYBRID_UNFILTERED), RECOMMENDED)
 # models whose honest values are a column of predictions/production.csv (the others are made from them)
 WITH_OOF_COLUMN: tuple[Model, ...] = (HYBRID, HYBRID_UNFILTERED, EXTENDED, EXTENDED_HYBRID, *PEERS)

@@ -20,6 +20,7 @@ import xgboost as xgb
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from hybridtwin.crossval import cross_validate, training_subset
+from hybridtwin.models.registry import SURROGATE
 
 log = logging.getLogger(__name__)
 
@@ -369,7 +370,12 @@ def approximate_residuals(surrogate, production: pd.DataFrame, inputs, target: s
     mean, std = surrogate.predict(production[list(inputs)], return_std=True)
     measured = production[target].to_numpy(float)
     return pd.DataFrame(
-        {"measured": measured, "pred_surrogate": mean, "pred_surrogate_std": std, "residual_approx": measured - mean}
+        {
+            "measured": measured,
+            SURROGATE.column: mean,
+            f"{SURROGATE.column}_std": std,
+            "residual_approx": measured - mean,
+        }
     )
 
 

@@ -95,6 +95,7 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
     true_residual = measured - simulated
     predicted = compose.hybrids(surrogate, residual_pred, in_support)
     hybrid, hybrid_gated = predicted[HYBRID.name], predicted[HYBRID_GATED.name]
+    errors = {SURROGATE: surrogate, HYBRID: hybrid, HYBRID_GATED: hybrid_gated}
     comparisons = {
         "residual (predicted vs true)": (true_residual, residual_pred),
         "simulation (measured vs FE)": (measured, simulated),
@@ -126,9 +127,7 @@ def matched_summary(measured, simulated, surrogate, residual_pred, in_support) -
             "true_residual": true_residual,
             "pred_residual": residual_pred,
             "error_simulation": measured - simulated,
-            "error_surrogate": measured - surrogate,
-            "error_hybrid": measured - hybrid,
-            "error_hybrid_gated": measured - hybrid_gated,
+            **{f"error_{model.name}": measured - value for model, value in errors.items()},
         }
     )
     return summary, cases
@@ -175,3 +174,40 @@ def production_predictions(
             **{model.oof_column: honest[model.name] for model in models if model is not HYBRID_GATED},
         }
     )
+
+
+def matched_cases_table(matched, simulated: str, measured: str, surrogate, residual_pred, inside):
+    """matched_check.csv and matched_cases.csv: each matched case's predictions and errors, numbered from 1."""
+    summary, cases = matched_summary(matched[measured], matched[simulated], surrogate, residual_pred, inside)
+    cases.insert(0, "in_support", np.asarray(inside, bool))
+    cases.insert(0, "matched_row", np.arange(1, len(matched) + 1))
+    return summary, cases
+
+
+def residual_check(predictions: pd.DataFrame, cases: pd.DataFrame, summary: pd.DataFrame) -> dict:
+    """Figure 2's data: the predicted residual against its target, in support (out-of-fold) and at the matched
+    cases (true residuals), with the matched cases' scores."""
+    inside = predictions[in_support(predictions)]
+    scores = summary.iloc[0]
+    return {
+        "production_target": inside["residual_approx"],
+        "production_pred": inside[HYBRID.oof_column] - inside[SURROGATE.column],
+        "matched_target": cases["true_residual"],
+        "matched_pred": cases["pred_residual"],
+        "matched_scores": {"r2": scores["r2"], "rmse": scores["rmse"]},
+    }
+
+
+def error_groups(predictions: pd.DataFrame, cases: pd.DataFrame) -> dict[str, dict[str, pd.Series]]:
+    """Figure 3's data: the surrogate's and the hybrid's errors in support (out-of-fold) and at the matched cases."""
+    inside = predictions[in_support(predictions)]
+    return {
+        f"production in support (n={len(inside):,}), hybrid out-of-fold": {
+            SURROGATE.name: inside["measured"] - inside[SURROGATE.column],
+            HYBRID.name: inside["measured"] - inside[HYBRID.oof_column],
+        },
+        f"matched cases (n={len(cases)})": {
+            SURROGATE.name: cases[f"error_{SURROGATE.name}"],
+            HYBRID.name: cases[f"error_{HYBRID.name}"],
+        },
+    }

@@ -7,6 +7,8 @@ import re
 
 import pandas as pd
 
+from hybridtwin.models.registry import EXTENDED, HYBRID
+
 # the report's words for the gain table's columns
 HEADERS = {
     "rmse_in_support_cv": "in support (CV)",
@@ -139,8 +141,8 @@ def diagnosis_markdown(
         lines.append(f"| {row.model} | " + " | ".join(_fmt(getattr(row, c)) for c in columns) + " |")
     by_model = gain.set_index("model")
     hybrid_out, extended_out = (
-        by_model.loc["hybrid", "rmse_out_of_support"],
-        by_model.loc["extended", "rmse_out_of_support"],
+        by_model.loc[HYBRID.name, "rmse_out_of_support"],
+        by_model.loc[EXTENDED.name, "rmse_out_of_support"],
     )
     lines += [
         "",

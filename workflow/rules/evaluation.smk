@@ -46,7 +46,7 @@ rule matched_check:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        inputs=INPUTS,
+        spec=spec(),
         matched_simulated=config["columns"]["matched_simulated"],
         matched_measured=config["columns"]["matched_measured"],
         unit=UNIT,

@@ -32,7 +32,7 @@ rule surrogate_fit:
     input:
         doe=CHECKED["doe"],
     output:
-        model=model_file("surrogate"),
+        model=model_file(registry.SURROGATE.name),
     log:
         log_of("surrogate_fit"),
     benchmark:
