@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from hybridtwin.paper import residual
+from hybridtwin.paper import tuning
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -51,10 +51,10 @@ def main() -> None:
     X, y = production.loc[inside, inputs].to_numpy(float), residuals.loc[inside, "residual_approx"].to_numpy(float)
     earlier = np.flatnonzero(inside)[: int(0.9 * inside.sum())]
     rows = {"earlier": np.isin(np.flatnonzero(inside), earlier)}
-    space = residual.search_space(config.get("tuning", {}).get("search_space"))
+    space = tuning.search_space(config.get("tuning", {}).get("search_space"))
     with tempfile.TemporaryDirectory() as folder:
         warm_journal, cold_journal = str(Path(folder) / "warm.log"), str(Path(folder) / "cold.log")
-        residual.tune(
+        tuning.tune(
             X[rows["earlier"]],
             y[rows["earlier"]],
             n_trials=args.trials,
@@ -67,7 +67,7 @@ def main() -> None:
         timings, studies = {}, {}
         for name, journal, warm in (("cold", cold_journal, 0), ("warm", warm_journal, args.warm)):
             start = time.perf_counter()
-            studies[name] = residual.tune(
+            studies[name] = tuning.tune(
                 X,
                 y,
                 n_trials=args.trials,

@@ -10,17 +10,17 @@ import logging
 from hybridtwin.io import files
 from hybridtwin.io.files import in_support, read_checked
 from hybridtwin.io.runner import run
-from hybridtwin.paper import residual
+from hybridtwin.paper import tuning
 
 
 def main(snakemake):
     p = snakemake.params
     production = read_checked(snakemake.input.production, p.inputs)
     residuals = read_checked(snakemake.input.residuals, ["residual_approx", "in_support"])
-    rows, tuned_on = residual.tuning_rows(in_support(residuals), p.max_rows, p.seed)
-    space = residual.search_space(p.search_space)
+    rows, tuned_on = tuning.tuning_rows(in_support(residuals), p.max_rows, p.seed)
+    space = tuning.search_space(p.search_space)
     worker = int(snakemake.wildcards.get("worker", 0))
-    study = residual.tune(
+    study = tuning.tune(
         production.iloc[rows][p.inputs],
         residuals.iloc[rows]["residual_approx"],
         n_trials=p.n_trials,
@@ -35,11 +35,11 @@ def main(snakemake):
     if "done" in snakemake.output.keys():  # a worker: its share of the study is done
         files.write_json({"study": study.study_name, "worker": worker}, snakemake.output.done)
         return
-    best = residual.best_params(study, space, p.n_trials)
+    best = tuning.best_params(study, space, p.n_trials)
     logging.info("study %s: best parameters %s", study.study_name, best)
     files.write_json({"study": study.study_name, "params": best}, snakemake.output.best)
-    files.write_csv(residual.hyperparameter_table(best, space, tuned_on), snakemake.output.table)
-    files.write_csv(residual.trials_table(study), snakemake.output.trials)
+    files.write_csv(tuning.hyperparameter_table(best, space, tuned_on), snakemake.output.table)
+    files.write_csv(tuning.trials_table(study), snakemake.output.trials)
 
 
 run(snakemake, main)

@@ -309,9 +309,9 @@ def test_a_killed_runs_orphan_never_overwrites_the_rerun(tmp_path):
 def test_two_tuning_workers_lose_no_trials(tmp_path):
     script = (
         "import sys, numpy as np\n"
-        "from hybridtwin import residual\n"
+        "from hybridtwin.paper import tuning\n"
         "rng = np.random.default_rng(0); X = rng.normal(size=(300, 3)); y = X[:, 0] + rng.normal(0, .1, 300)\n"
-        "residual.tune(X, y, n_trials=8, n_folds=3, seed=int(sys.argv[2]), storage=sys.argv[1],\n"
+        "tuning.tune(X, y, n_trials=8, n_folds=3, seed=int(sys.argv[2]), storage=sys.argv[1],\n"
         "              space={'n_estimators': {'low': 5, 'high': 30, 'type': 'int'},\n"
         "                     'max_depth': {'low': 2, 'high': 4, 'type': 'int'}})\n"
     )

@@ -79,43 +79,19 @@ def coverage_table(
     for method, labels, method_edges in (("by_region", by_region, edges), ("pooled", pooled, [])):
         fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
         methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
+    scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed)
     test = ~calibration
-    models = [*methods["by_region"][2], RECOMMENDED]
     rows = []
     for name in [*methods["by_region"][0].regions, "all"]:
-        in_region = test & ((region == name) if name != "all" else True)
-        if not in_region.any():
+        region_rows = np.flatnonzero(test & ((region == name) if name != "all" else True))
+        if not len(region_rows):
             continue
         label = region_label(name, edges, threshold) if name != "all" else "all production rows"
-        region_rows = np.flatnonzero(in_region)
-        for model in models:
-            for method, (intervals, labels, predictions) in methods.items():
-                # a model is sampled among the rows it has a value for (a peer predicts a sample of a long log)
-                valued = (
-                    region_rows if model == RECOMMENDED else region_rows[np.isfinite(predictions[model][region_rows])]
-                )
-                idx = subsample(valued, MAX_TEST_ROWS, seed)
-                prediction, lower, upper = _bounds(intervals, predictions, labels, idx, model, level)
-                ok = np.isfinite(prediction) & np.isfinite(lower)
-                if not ok.any():
-                    continue
-                idx, prediction, lower, upper = idx[ok], prediction[ok], lower[ok], upper[ok]
-                row = {
-                    "region": name,
-                    "region_label": label,
-                    "model": model,
-                    "calibration": method,
-                    "nominal_level": level,
-                    "n_test": len(idx),
-                    "coverage": float(np.mean((measured[idx] >= lower) & (measured[idx] <= upper))),
-                    "mean_width": float(np.mean(upper - lower)),
-                    "rmse_test": rmse(measured[idx], prediction),
-                }
-                if truth is not None:
-                    reference = np.asarray(truth, float)[idx]
-                    row["coverage_truth"] = float(np.mean((reference >= lower) & (reference <= upper)))
-                    row["rmse_truth_test"] = rmse(reference, prediction)
-                rows.append(row)
+        for model in [*methods["by_region"][2], RECOMMENDED]:
+            for method, fitted in methods.items():
+                row = scored.row(fitted, region_rows, model)
+                if row is not None:
+                    rows.append({"region": name, "region_label": label, "model": model, "calibration": method, **row})
     table = pd.DataFrame(rows)
     # the calibration rows a region's intervals rest on (a seeded sample of MAX_CALIBRATION_ROWS where there are more)
     table["n_calibration"] = (
@@ -123,7 +99,47 @@ def coverage_table(
         .map({name: min(int(np.sum(calibration & (region == name))), MAX_CALIBRATION_ROWS) for name in set(region)})
         .fillna(min(int(calibration.sum()), MAX_CALIBRATION_ROWS))
     )
-    table["evaluated_on"] = (
+    table["evaluated_on"] = _evaluated_on(int(np.sum(test)), truth is not None)
+    return table
+
+
+@dataclass(frozen=True)
+class Scored:
+    """How one model's intervals (or the recommended model's) are scored on a region's test rows."""
+
+    measured: np.ndarray
+    truth: np.ndarray | None
+    level: float
+    seed: int
+
+    def row(self, fitted: tuple, region_rows: np.ndarray, model: str) -> dict | None:
+        """Coverage, width and RMSE on a seeded sample of the rows where the model has a value (None: none)."""
+        intervals, labels, predictions = fitted
+        # a model is sampled among the rows it has a value for (a peer predicts a sample of a long log)
+        valued = region_rows if model == RECOMMENDED else region_rows[np.isfinite(predictions[model][region_rows])]
+        idx = subsample(valued, MAX_TEST_ROWS, self.seed)
+        prediction, lower, upper = _bounds(intervals, predictions, labels, idx, model, self.level)
+        ok = np.isfinite(prediction) & np.isfinite(lower)
+        if not ok.any():
+            return None
+        idx, prediction, lower, upper = idx[ok], prediction[ok], lower[ok], upper[ok]
+        measured = self.measured[idx]
+        row = {
+            "nominal_level": self.level,
+            "n_test": len(idx),
+            "coverage": float(np.mean((measured >= lower) & (measured <= upper))),
+            "mean_width": float(np.mean(upper - lower)),
+            "rmse_test": rmse(measured, prediction),
+        }
+        if self.truth is not None:
+            reference = self.truth[idx]
+            row["coverage_truth"] = float(np.mean((reference >= lower) & (reference <= upper)))
+            row["rmse_truth_test"] = rmse(reference, prediction)
+        return row
+
+
+def _evaluated_on(n_test: int, with_truth: bool) -> str:
+    return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
         "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
@@ -131,12 +147,11 @@ def coverage_table(
         "coverage of the measured value"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"
-            if np.sum(test) > MAX_TEST_ROWS
+            if n_test > MAX_TEST_ROWS
             else ""
         )
-        + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if truth is not None else "")
+        + ("; coverage_truth and rmse_truth_test against the demo's noise-free plant" if with_truth else "")
     )
-    return table
 
 
 @dataclass
