@@ -15,6 +15,7 @@ def main(snakemake):
         snakemake.params.target,
         snakemake.params.unit,
         spec,
+        snakemake.params.figures,
     )
     with files.atomic_path(snakemake.output.report) as temporary:
         temporary.write_text(text)

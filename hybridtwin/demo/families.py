@@ -149,45 +149,15 @@ def make_production(n: int, rng: np.random.Generator) -> tuple[pd.DataFrame, dic
         + rng.normal(0, 2.0, day.max() + 1)[day]
         + rng.normal(0, 0.3, n)
     )
-
     coil = _coils(n, rng)
-    n_coils = coil.max() + 1
-    stronger = rng.random(n_coils) < rng.uniform(0.1, 0.35)
-    coil_rm = rng.normal(rng.uniform(325, 345), 9, n_coils) + 25.0 * stronger
-    coil_rp = rng.uniform(200, 215) + 0.8 * (coil_rm - coil_rm.mean()) + rng.normal(0, 4.0, n_coils)
-    rm = coil_rm[coil] + rng.normal(0, 2.0, n)
-    rp = coil_rp[coil] + rng.normal(0, 1.8, n)
-    thickness = rng.normal(rng.uniform(0.70, 0.76), 0.01, n_coils)[coil] + rng.normal(0, 0.003, n)
-    r_n = rng.normal(rng.uniform(1.55, 1.8), 0.05, n_coils)[coil] + rng.normal(0, 0.01, n)
-    lubricant = np.round(rng.uniform(0.8, 2.2, n_coils), 2)[coil]
-
+    material, lubricant = _material(n, coil, rng)
     campaign, confounding = _campaigns(n, coil, rng)
-    n_campaigns = campaign.max() + 1
-    shim_low = rng.uniform(0.35, 0.55, 2)
-    shims = shim_low + 0.05 * rng.integers(0, 7, (n_campaigns, 2))  # shims come in 0.05 mm steps
-    cushion_center = rng.uniform(330, 360)
-    cushions = cushion_center + rng.uniform(-40, 40, (n_campaigns, 4))
-    settings = np.column_stack([shims, cushions])[campaign] + rng.normal(0, [0.004, 0.004, 2, 2, 2, 2], (n, 6))
-
+    settings = _settings(n, campaign, rng)
     warm = rng.uniform(15, 30, shift_of.max() + 1)[shift_of] + 0.15 * (settings[:, 2:].mean(axis=1) - 300.0)
     tau = rng.uniform(40, 120, shift_of.max() + 1)[shift_of] * 60.0
     die = ambient + 2.0 + warm * (1.0 - np.exp(-in_shift / tau)) + rng.normal(0, 0.5, n)
-
     frame = pd.DataFrame(
-        {
-            "thickness_mm": thickness,
-            "rm_mpa": rm,
-            "rp02_mpa": rp,
-            "r_n": r_n,
-            "die_temp_c": die,
-            "ambient_temp_c": ambient,
-            "shim20_mm": settings[:, 0],
-            "shim21_mm": settings[:, 1],
-            "cushion_c1_kn": settings[:, 2],
-            "cushion_c2_kn": settings[:, 3],
-            "cushion_c3_kn": settings[:, 4],
-            "cushion_c4_kn": settings[:, 5],
-        }
+        {**material, "die_temp_c": die, "ambient_temp_c": ambient, **dict(zip(demo.INPUT_NAMES[6:], settings.T))}
     ).round(4)
     hidden = {
         "elapsed_h": elapsed / 3600.0,
@@ -200,6 +170,30 @@ def make_production(n: int, rng: np.random.Generator) -> tuple[pd.DataFrame, dic
         "confounding": confounding,
     }
     return frame, hidden
+
+
+def _material(n: int, coil: np.ndarray, rng: np.random.Generator) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Each coil's own material (some coils stronger) and lubricant film, per part."""
+    n_coils = coil.max() + 1
+    stronger = rng.random(n_coils) < rng.uniform(0.1, 0.35)
+    coil_rm = rng.normal(rng.uniform(325, 345), 9, n_coils) + 25.0 * stronger
+    coil_rp = rng.uniform(200, 215) + 0.8 * (coil_rm - coil_rm.mean()) + rng.normal(0, 4.0, n_coils)
+    rm = coil_rm[coil] + rng.normal(0, 2.0, n)
+    rp = coil_rp[coil] + rng.normal(0, 1.8, n)
+    thickness = rng.normal(rng.uniform(0.70, 0.76), 0.01, n_coils)[coil] + rng.normal(0, 0.003, n)
+    r_n = rng.normal(rng.uniform(1.55, 1.8), 0.05, n_coils)[coil] + rng.normal(0, 0.01, n)
+    lubricant = np.round(rng.uniform(0.8, 2.2, n_coils), 2)[coil]
+    return {"thickness_mm": thickness, "rm_mpa": rm, "rp02_mpa": rp, "r_n": r_n}, lubricant
+
+
+def _settings(n: int, campaign: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Shims (in 0.05 mm steps) and cushion forces per part: one setting per campaign, with scatter."""
+    n_campaigns = campaign.max() + 1
+    shim_low = rng.uniform(0.35, 0.55, 2)
+    shims = shim_low + 0.05 * rng.integers(0, 7, (n_campaigns, 2))
+    cushion_center = rng.uniform(330, 360)
+    cushions = cushion_center + rng.uniform(-40, 40, (n_campaigns, 4))
+    return np.column_stack([shims, cushions])[campaign] + rng.normal(0, [0.004, 0.004, 2, 2, 2, 2], (n, 6))
 
 
 def make_doe(n: int, rng: np.random.Generator, fe_scatter: float) -> pd.DataFrame:
@@ -257,82 +251,152 @@ def draw_plant(
         inside = gate.predict(frame[demo.INPUT_NAMES])
         if inside.mean() >= min_in_support and len(np.unique(hidden["coil"][inside])) >= 10:
             break
-    names = _names(rng)
-    sign = float(rng.choice([-1.0, 1.0]))
-    effect = np.zeros(n)
+    draw = _Draw(frame, hidden, inside, _names(rng), float(rng.choice([-1.0, 1.0])), rng)
     # a mild effect of the per-coil lubricant film, below what can be told from the surrogate's error
-    background = _scaled(hidden["lubricant"], inside, rng.uniform(0.2, 0.5)) if family != "null" else effect
-    copy = None
-
-    def sigmoid(column: str) -> tuple[np.ndarray, str]:
-        x = frame[column].to_numpy(float)
-        threshold = float(np.quantile(x[inside], rng.uniform(0.35, 0.75)))
-        amplitude, width = sign * rng.uniform(8, 20), rng.uniform(2.0, 3.5)
-        text = f"saturating change of {amplitude:+.1f} mm around {names[column]} = {threshold:.1f} (width {width:.1f})"
-        return amplitude / (1.0 + np.exp(-(x - threshold) / width)), text
-
-    if family in ("temperature", "near_copy", "two_causes"):
-        effect, text = sigmoid("die_temp_c")
-        expected = Expected(names["die_temp_c"], ("sigmoid",))
-        if family == "near_copy":
-            copy = frame["die_temp_c"].to_numpy(float) + rng.normal(0, 0.1, n)
-            expected = Expected(names["die_temp_c"], ("sigmoid",), alias=names["copy"])
-            text += f"; {names['copy']} is a second sensor reading the same within 0.1"
-        if family == "two_causes":
-            wear = _scaled(hidden["strokes"].astype(float), inside, sign * rng.uniform(1.8, 3.0))
-            effect = effect + wear
-            expected = Expected(
-                names["die_temp_c"], ("sigmoid",), also=(Expected(names["strokes"], ("linear",), monotone=True),)
-            )
-            text += f", and a wear drift of {wear[inside].std():.1f} mm (std in support) along {names['strokes']}"
-    elif family == "shim_step":
-        column = str(rng.choice(["shim20_mm", "shim21_mm"]))
-        x = frame[column].to_numpy(float)
-        levels = np.unique(np.round(x[inside], 2))
-        threshold = float(np.quantile(x[inside], rng.uniform(0.3, 0.7)))
-        amplitude = sign * rng.uniform(5, 8)
-        effect = np.where(x >= threshold, amplitude, 0.0)
-        expected = Expected(names[column], ("step", "sigmoid"))
-        text = f"step of {amplitude:+.1f} mm when {names[column]} >= {threshold:.3f} ({len(levels)} levels in support)"
-    elif family == "coil_property":
-        effect = _scaled(hidden["lubricant"], inside, sign * rng.uniform(1.8, 3.0))
-        background = np.zeros(n)
-        expected = Expected(names["lubricant"], ("linear",), monotone=True)
-        text = f"linear effect of the per-coil {names['lubricant']}, {effect[inside].std():.1f} mm std in support"
-    elif family == "coil_itself":
-        offsets = rng.normal(0.0, rng.uniform(2.5, 4.0), hidden["coil"].max() + 1)
-        effect = offsets[hidden["coil"]]
-        expected = Expected(names["coil"], ("group",))
-        text = f"an offset per coil that no logged quantity explains, sd {offsets.std():.1f} mm"
-    elif family == "time_drift":
-        effect = _scaled(hidden["elapsed_h"], inside, sign * rng.uniform(1.8, 3.0))
-        text = (
-            f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
-            "in support, that no logged quantity explains"
-        )
-        if _never_idle(hidden["elapsed_h"][inside], hidden["strokes"][inside]):
-            # without idle time the stroke counter is calendar time on another scale: no data can tell them apart
-            expected = Expected(names["time"], ("linear",), monotone=True, alias=names["strokes"])
-            text += f"; the line never stands idle in support, so {names['strokes']} is time on another scale"
-        else:
-            expected = Expected(names["time"], ("linear",), monotone=True)
-    else:  # null
-        expected = Expected(None)
-        text = "no hidden effect"
-
-    offset = sign * rng.uniform(5, 20)
-    production_target = demo.simulator(frame) + offset + effect + background
-    truth = production_target.copy()
+    background = _scaled(hidden["lubricant"], inside, rng.uniform(0.2, 0.5)) if family != "null" else np.zeros(n)
+    hidden_effect = EFFECTS[family](draw)
+    if hidden_effect.background is not None:
+        background = hidden_effect.background
+    truth = demo.simulator(frame) + draw.sign * rng.uniform(5, 20) + hidden_effect.effect + background
     measured = np.round(truth + rng.normal(0, noise, n), 3)
+    names = draw.names
+    doe = doe.rename(columns={**{c: names[c] for c in demo.INPUT_NAMES}, "__target": names["target"]})
+    return PlantCase(
+        family,
+        hidden_effect.text,
+        doe,
+        _logged(draw, measured, hidden_effect.copy),
+        truth,
+        [names[c] for c in demo.INPUT_NAMES],
+        names["target"],
+        hidden_effect.expected,
+        float(noise),
+        hidden["confounding"],
+        names,
+    )
 
-    production = frame.rename(columns={c: names[c] for c in demo.INPUT_NAMES})
-    coil_labels = _coil_labels(hidden["coil"].max() + 1, rng)
-    shift_labels = np.array(["A", "B", "C"])[hidden["shift_of"] % 3]
+
+@dataclass
+class _Draw:
+    """A plant being drawn: its parts, hidden quantities, support, column names, the effect's sign, the draws."""
+
+    frame: pd.DataFrame
+    hidden: dict
+    inside: np.ndarray
+    names: dict[str, str]
+    sign: float
+    rng: np.random.Generator
+
+    def column(self, name: str) -> np.ndarray:
+        return self.frame[name].to_numpy(float)
+
+
+@dataclass
+class _Effect:
+    """A family's hidden effect per part, what the diagnosis must report, its words, and a near-copy sensor
+    or a background effect where the family has its own."""
+
+    effect: np.ndarray
+    expected: Expected
+    text: str
+    copy: np.ndarray | None = None
+    background: np.ndarray | None = None
+
+
+def _sigmoid(draw: _Draw, column: str) -> tuple[np.ndarray, str]:
+    x, rng = draw.column(column), draw.rng
+    threshold = float(np.quantile(x[draw.inside], rng.uniform(0.35, 0.75)))
+    amplitude, width = draw.sign * rng.uniform(8, 20), rng.uniform(2.0, 3.5)
+    text = f"saturating change of {amplitude:+.1f} mm around {draw.names[column]} = {threshold:.1f} (width {width:.1f})"
+    return amplitude / (1.0 + np.exp(-(x - threshold) / width)), text
+
+
+def _temperature(draw: _Draw) -> _Effect:
+    effect, text = _sigmoid(draw, "die_temp_c")
+    return _Effect(effect, Expected(draw.names["die_temp_c"], ("sigmoid",)), text)
+
+
+def _near_copy(draw: _Draw) -> _Effect:
+    effect, text = _sigmoid(draw, "die_temp_c")
+    names = draw.names
+    copy = draw.column("die_temp_c") + draw.rng.normal(0, 0.1, len(effect))
+    text += f"; {names['copy']} is a second sensor reading the same within 0.1"
+    return _Effect(effect, Expected(names["die_temp_c"], ("sigmoid",), alias=names["copy"]), text, copy)
+
+
+def _two_causes(draw: _Draw) -> _Effect:
+    effect, text = _sigmoid(draw, "die_temp_c")
+    names, inside = draw.names, draw.inside
+    wear = _scaled(draw.hidden["strokes"].astype(float), inside, draw.sign * draw.rng.uniform(1.8, 3.0))
+    wear_expected = Expected(names["strokes"], ("linear",), monotone=True)
+    text += f", and a wear drift of {wear[inside].std():.1f} mm (std in support) along {names['strokes']}"
+    return _Effect(effect + wear, Expected(names["die_temp_c"], ("sigmoid",), also=(wear_expected,)), text)
+
+
+def _shim_step(draw: _Draw) -> _Effect:
+    column = str(draw.rng.choice(["shim20_mm", "shim21_mm"]))
+    x, inside, name = draw.column(column), draw.inside, draw.names[column]
+    levels = np.unique(np.round(x[inside], 2))
+    threshold = float(np.quantile(x[inside], draw.rng.uniform(0.3, 0.7)))
+    amplitude = draw.sign * draw.rng.uniform(5, 8)
+    text = f"step of {amplitude:+.1f} mm when {name} >= {threshold:.3f} ({len(levels)} levels in support)"
+    return _Effect(np.where(x >= threshold, amplitude, 0.0), Expected(name, ("step", "sigmoid")), text)
+
+
+def _coil_property(draw: _Draw) -> _Effect:
+    effect = _scaled(draw.hidden["lubricant"], draw.inside, draw.sign * draw.rng.uniform(1.8, 3.0))
+    name = draw.names["lubricant"]
+    text = f"linear effect of the per-coil {name}, {effect[draw.inside].std():.1f} mm std in support"
+    return _Effect(effect, Expected(name, ("linear",), monotone=True), text, background=np.zeros(len(effect)))
+
+
+def _coil_itself(draw: _Draw) -> _Effect:
+    coil = draw.hidden["coil"]
+    offsets = draw.rng.normal(0.0, draw.rng.uniform(2.5, 4.0), coil.max() + 1)
+    text = f"an offset per coil that no logged quantity explains, sd {offsets.std():.1f} mm"
+    return _Effect(offsets[coil], Expected(draw.names["coil"], ("group",)), text)
+
+
+def _time_drift(draw: _Draw) -> _Effect:
+    hidden, inside, names = draw.hidden, draw.inside, draw.names
+    effect = _scaled(hidden["elapsed_h"], inside, draw.sign * draw.rng.uniform(1.8, 3.0))
+    text = (
+        f"a drift in calendar time (also while the line stands idle), {effect[inside].std():.1f} mm std "
+        "in support, that no logged quantity explains"
+    )
+    if not _never_idle(hidden["elapsed_h"][inside], hidden["strokes"][inside]):
+        return _Effect(effect, Expected(names["time"], ("linear",), monotone=True), text)
+    # without idle time the stroke counter is calendar time on another scale: no data can tell them apart
+    text += f"; the line never stands idle in support, so {names['strokes']} is time on another scale"
+    return _Effect(effect, Expected(names["time"], ("linear",), monotone=True, alias=names["strokes"]), text)
+
+
+def _null(draw: _Draw) -> _Effect:
+    return _Effect(np.zeros(len(draw.inside)), Expected(None), "no hidden effect")
+
+
+EFFECTS = {
+    "temperature": _temperature,
+    "shim_step": _shim_step,
+    "coil_property": _coil_property,
+    "coil_itself": _coil_itself,
+    "two_causes": _two_causes,
+    "time_drift": _time_drift,
+    "near_copy": _near_copy,
+    "null": _null,
+}
+
+
+def _logged(draw: _Draw, measured: np.ndarray, copy: np.ndarray | None) -> pd.DataFrame:
+    """The production log as the plant writes it: its log columns, then the inputs, then the measured target."""
+    names, hidden = draw.names, draw.hidden
+    production = draw.frame.rename(columns={c: names[c] for c in demo.INPUT_NAMES})
+    coil_labels = _coil_labels(hidden["coil"].max() + 1, draw.rng)
     log_columns = {
-        names["time"]: _timestamps(hidden["stamps"], rng),
+        names["time"]: _timestamps(hidden["stamps"], draw.rng),
         names["strokes"]: hidden["strokes"],
         names["coil"]: coil_labels[hidden["coil"]],
-        names["shift"]: shift_labels,
+        names["shift"]: np.array(["A", "B", "C"])[hidden["shift_of"] % 3],
         names["lubricant"]: hidden["lubricant"],
     }
     if copy is not None:
@@ -340,17 +404,4 @@ def draw_plant(
     order = list(log_columns) + list(production.columns)
     production = pd.concat([pd.DataFrame(log_columns), production], axis=1)[order]
     production[names["target"]] = measured
-    doe = doe.rename(columns={**{c: names[c] for c in demo.INPUT_NAMES}, "__target": names["target"]})
-    return PlantCase(
-        family,
-        text,
-        doe,
-        production,
-        truth,
-        [names[c] for c in demo.INPUT_NAMES],
-        names["target"],
-        expected,
-        float(noise),
-        hidden["confounding"],
-        names,
-    )
+    return production

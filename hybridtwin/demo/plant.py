@@ -182,13 +182,45 @@ def campaign_settings(n_runs: int, rng: np.random.Generator) -> np.ndarray:
 
 def make_production(plant: DemoPlant) -> pd.DataFrame:
     """Parts in production order with inputs, plant log columns and no target yet."""
-    rng = np.random.default_rng([plant.seed, 2])
-    n = plant.n_production
+    rng = np.random.default_rng([plant.seed, 2])  # drawn from in this order: timeline, ambient, coils, settings
+    run, in_run_s, stamps = _timeline(plant.n_production, rng)
+    n, n_runs = len(run), run.max() + 1
+    hour = stamps.hour.to_numpy() + stamps.minute.to_numpy() / 60
+    ambient = (
+        21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0) + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n)
+    )
+    coil, material = _coils(n, plant.blanks_per_coil, rng)
+    # settings are re-tuned twice per run (after the warm-up and mid-run)
+    segment = 2 * run + (in_run_s > np.array([np.median(in_run_s[run == r]) for r in range(n_runs)])[run])
+    campaigns = campaign_settings(2 * n_runs, rng)
+    settings = campaigns[segment] + rng.normal(0, [0.01, 0.01, 3, 3, 3, 3], (n, 6))
+    # the die warms up within each run, more under higher blank-holder (cushion) forces
+    warm = rng.uniform(18, 30, n_runs)[run] + 0.22 * (settings[:, 2:].mean(axis=1) - 290.0)
+    tau_s = rng.uniform(30, 60, n_runs)[run] * 60
+    die = ambient + 2.0 + warm * (1 - np.exp(-in_run_s / tau_s)) + rng.normal(0, 0.6, n)
+    strokes = 250_000 + np.arange(n) + np.cumsum(rng.integers(20, 400, n_runs))[run]  # set-up strokes between runs
+    shift = np.select([(hour >= 6) & (hour < 14), (hour >= 14) & (hour < 22)], ["A", "B"], "C")
+    production = pd.DataFrame(
+        {
+            "timestamp": stamps.strftime("%Y-%m-%d %H:%M:%S"),
+            "stroke_counter": strokes,
+            "coil_id": [f"K{26000 + c:05d}" for c in coil],
+            "shift": shift,
+            **material,
+            "die_temp_c": die,
+            "ambient_temp_c": ambient,
+            **dict(zip(INPUT_NAMES[6:], settings.T)),
+        }
+    )
+    return production.round({name: 4 for name in INPUT_NAMES})
+
+
+def _timeline(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, pd.DatetimeIndex]:
+    """Each part's run, seconds since its run started, and timestamp: 14 runs of parts every ~3.75 s, gaps of
+    8 h to 3 days between them."""
     parts_per_run = max(200, n // 14)
     run = np.minimum(np.arange(n) // parts_per_run, (n - 1) // parts_per_run)
     n_runs = run.max() + 1
-
-    # time: parts every ~3.75 s within a run, gaps of 8 h to 3 days between runs
     cycle_s = 60.0 / STROKES_PER_MINUTE * (1.0 + rng.exponential(0.08, n))
     run_start = np.r_[0.0, np.cumsum(rng.uniform(8, 72, n_runs - 1) * 3600.0)]
     first = np.searchsorted(run, np.arange(n_runs))
@@ -196,19 +228,15 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     run_offsets = np.zeros(n_runs)
     for r in range(1, n_runs):
         run_offsets[r] = run_offsets[r - 1] + in_run_s[run == r - 1].max() + run_start[r] - run_start[r - 1]
-    elapsed_s = run_offsets[run] + in_run_s
-    start = pd.Timestamp("2026-03-02 06:00:00")
-    stamps = start + pd.to_timedelta(np.round(elapsed_s), unit="s")
-    hour = stamps.hour.to_numpy() + stamps.minute.to_numpy() / 60
+    stamps = pd.Timestamp("2026-03-02 06:00:00") + pd.to_timedelta(np.round(run_offsets[run] + in_run_s), unit="s")
+    return run, in_run_s, stamps
 
-    ambient = (
-        21.0 + 6.0 * np.sin(2 * np.pi * (hour - 9.0) / 24.0) + rng.normal(0, 3.0, n_runs)[run] + rng.normal(0, 0.3, n)
-    )
 
-    # coils of ~blanks_per_coil blanks; Rm and Rp0.2 move together from coil to coil
-    coil = np.cumsum(rng.random(n) < 1 / plant.blanks_per_coil)
+def _coils(n: int, blanks_per_coil: float, rng: np.random.Generator) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Each part's coil (~``blanks_per_coil`` blanks each) and material: Rm and Rp0.2 move together from coil to
+    coil, and supplier B's coils are stronger, beyond the DoE's material ranges."""
+    coil = np.cumsum(rng.random(n) < 1 / blanks_per_coil)
     n_coils = coil.max() + 1
-    # two suppliers: B's coils are stronger, beyond the DoE's material ranges
     supplier_b = rng.random(n_coils) < 0.25
     coil_rm = rng.normal(345, 12, n_coils) + 30.0 * supplier_b
     coil_rp = 215 + 0.85 * (coil_rm - 345) + rng.normal(0, 4.0, n_coils)
@@ -217,42 +245,7 @@ def make_production(plant: DemoPlant) -> pd.DataFrame:
     rp = coil_rp[coil] + 0.85 * along + rng.normal(0, 1.5, n)
     thickness = rng.normal(0.74, 0.012, n_coils)[coil] + rng.normal(0, 0.003, n)
     r_n = rng.normal(1.60, 0.06, n_coils)[coil] + rng.normal(0, 0.01, n)
-
-    # settings are re-tuned twice per run (after the warm-up and mid-run)
-    segment = 2 * run + (in_run_s > np.array([np.median(in_run_s[run == r]) for r in range(n_runs)])[run])
-    campaigns = campaign_settings(2 * n_runs, rng)
-    settings = campaigns[segment] + rng.normal(0, [0.01, 0.01, 3, 3, 3, 3], (n, 6))
-
-    # the die warms up within each run, more under higher blank-holder (cushion) forces
-    warm = rng.uniform(18, 30, n_runs)[run] + 0.22 * (settings[:, 2:].mean(axis=1) - 290.0)
-    tau_s = rng.uniform(30, 60, n_runs)[run] * 60
-    die = ambient + 2.0 + warm * (1 - np.exp(-in_run_s / tau_s)) + rng.normal(0, 0.6, n)
-
-    setup_strokes = rng.integers(20, 400, n_runs)
-    strokes = 250_000 + np.arange(n) + np.cumsum(setup_strokes)[run]
-    shift = np.select([(hour >= 6) & (hour < 14), (hour >= 14) & (hour < 22)], ["A", "B"], "C")
-
-    production = pd.DataFrame(
-        {
-            "timestamp": stamps.strftime("%Y-%m-%d %H:%M:%S"),
-            "stroke_counter": strokes,
-            "coil_id": [f"K{26000 + c:05d}" for c in coil],
-            "shift": shift,
-            "thickness_mm": thickness,
-            "rm_mpa": rm,
-            "rp02_mpa": rp,
-            "r_n": r_n,
-            "die_temp_c": die,
-            "ambient_temp_c": ambient,
-            "shim20_mm": settings[:, 0],
-            "shim21_mm": settings[:, 1],
-            "cushion_c1_kn": settings[:, 2],
-            "cushion_c2_kn": settings[:, 3],
-            "cushion_c3_kn": settings[:, 4],
-            "cushion_c4_kn": settings[:, 5],
-        }
-    )
-    return production.round({name: 4 for name in INPUT_NAMES})
+    return coil, {"thickness_mm": thickness, "rm_mpa": rm, "rp02_mpa": rp, "r_n": r_n}
 
 
 def plant_truth(plant: DemoPlant, frame: pd.DataFrame) -> np.ndarray:

@@ -51,18 +51,34 @@ def cause_profile(
         "unit": unit,
     }
     if candidate.kind == "group":
-        frame = pd.DataFrame({"level": candidate.values, "y": y})
-        stats_ = frame.groupby("level")["y"].agg(["mean", "count", "std"]).sort_index()
-        profile.update(
-            levels=stats_.index.tolist(),
-            mean=stats_["mean"].to_numpy(),
-            se=(stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
-            fitted=form.predict(np.asarray(stats_.index)),
-        )
-        return profile
+        return {**profile, **_group_profile(candidate.values, y, form)}
     x = candidate.values if candidate.kind != "interaction" else form.predict(candidate.values)
     if candidate.kind == "interaction":
         form = Identity()
+    profile.update(_curve_profile(x, y, form, n_bins, n_boot, seed))
+    profile["xlabel"] = (
+        _axis(name, candidate.cause.unit(input_units))
+        if candidate.kind != "interaction"
+        else f"fitted interaction term {name} [{unit}]"
+    )
+    if candidate.kind == "time":
+        profile["xlabel"] = f"{name}: hours since {candidate.origin}"
+    return profile
+
+
+def _group_profile(levels, y, form) -> dict:
+    """Each level's mean residual with its standard error, and the fitted offsets."""
+    stats_ = pd.DataFrame({"level": levels, "y": y}).groupby("level")["y"].agg(["mean", "count", "std"]).sort_index()
+    return {
+        "levels": stats_.index.tolist(),
+        "mean": stats_["mean"].to_numpy(),
+        "se": (stats_["std"].fillna(0) / np.sqrt(stats_["count"])).to_numpy(),
+        "fitted": form.predict(np.asarray(stats_.index)),
+    }
+
+
+def _curve_profile(x, y, form, n_bins: int, n_boot: int, seed: int) -> dict:
+    """The residual binned by quantiles of ``x``, the fitted form on a grid and a bootstrap 95% band."""
     edges = np.unique(np.percentile(x, np.linspace(0, 100, n_bins + 1)))
     which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
     binned = (
@@ -79,19 +95,7 @@ def cause_profile(
         curves.append(fit_form(form.name, x[pick], y[pick]).predict(grid))
     curve = form.predict(grid)
     low, high = np.percentile(curves, [2.5, 97.5], axis=0) if curves else (curve, curve)
-    profile.update(
-        binned=binned,
-        grid=grid,
-        curve=curve,
-        band_low=low,
-        band_high=high,
-        xlabel=_axis(name, candidate.cause.unit(input_units))
-        if candidate.kind != "interaction"
-        else f"fitted interaction term {name} [{unit}]",
-    )
-    if candidate.kind == "time":
-        profile["xlabel"] = f"{name}: hours since {candidate.origin}"
-    return profile
+    return {"binned": binned, "grid": grid, "curve": curve, "band_low": low, "band_high": high}
 
 
 def _axis(name: str, unit: str) -> str:

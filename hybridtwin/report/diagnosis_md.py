@@ -40,11 +40,35 @@ def _fmt(value, digits: int = 2) -> str:
 
 
 def diagnosis_markdown(
-    causes: pd.DataFrame, summary: dict, gain: pd.DataFrame, target: str, unit: str, demo_spec: dict | None = None
+    causes: pd.DataFrame,
+    summary: dict,
+    gain: pd.DataFrame,
+    target: str,
+    unit: str,
+    demo_spec: dict | None = None,
+    figures: str = "results/figures",
 ) -> str:
-    offset = summary["offset"]
+    """results/diagnosis.md; ``figures``: the folder of the causes' figures, as the reader finds it."""
     unit = text(unit)
     lines = [f"# What the simulation gets wrong: {code(target)}", ""]
+    lines += _data(summary, unit)
+    lines += _offset(summary, target, unit)
+    lines += _causes(causes, summary["selected"], target, unit, figures)
+    lines += _not_separated(summary)
+    lines += _gain(gain, unit)
+    if demo_spec is not None:
+        lines += [
+            "",
+            "## Demo check",
+            "",
+            f"The demo plant hides: {demo_spec['hidden_effect_text']}, on top of an offset of "
+            f"{demo_spec['offset_mm']:g} {unit}; measurement noise {demo_spec['noise_mm']:g} {unit} "
+            "(the noise floor of any RMSE against measurements).",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def _data(summary: dict, unit: str) -> list[str]:
     n_in_support = summary.get("n_in_support", summary["n_rows"])
     sample = (
         f"a seeded random sample of {summary['n_rows']:,} of the {n_in_support:,} in-support production parts "
@@ -52,7 +76,7 @@ def diagnosis_markdown(
         if summary["n_rows"] < n_in_support
         else f"{summary['n_rows']:,} in-support production parts"
     )
-    lines += [
+    return [
         f"Data: {sample} (approximate residuals "
         f"r = measured − surrogate). Residual spread after the offset: {summary['residual_std']:.2f} {unit} (std). "
         f"The surrogate's own uncertainty on these parts is {summary['surrogate_std']:.2f} {unit}; a cause must "
@@ -60,16 +84,22 @@ def diagnosis_markdown(
         "the surrogate's error rather than the plant's.",
         "",
     ]
+
+
+def _offset(summary: dict, target: str, unit: str) -> list[str]:
+    offset = summary["offset"]
     direction = "higher" if offset > 0 else "lower"
-    lines += [
+    return [
         "## Offset",
         "",
         f"On average the measured {code(target)} is **{abs(offset):.2f} {unit} {direction}** than simulated "
         f"(± {2 * summary['offset_se']:.2f} {unit}, 2 standard errors over blocks of consecutive parts).",
         "",
     ]
-    selected = summary["selected"]
-    lines += ["## Causes", ""]
+
+
+def _causes(causes: pd.DataFrame, selected: list[dict], target: str, unit: str, figures: str) -> list[str]:
+    lines = ["## Causes", ""]
     if not selected:
         lines += [
             "**No cause beyond the offset is significant.** No candidate column explains the in-support "
@@ -77,25 +107,28 @@ def diagnosis_markdown(
             "uncertainty. The simulation's error here is a constant offset (plus noise).",
             "",
         ]
-        top = causes.iloc[0] if len(causes) else None
-        if top is not None:
+        if len(causes):
+            top = causes.iloc[0]
             lines += [
                 f"Strongest candidate, not significant: {code(top['cause'])} ({top['form']}, explains "
                 f"{top['explained_share']:.1%} of the offset-free variance, p = {top['p_value']:.2g}).",
                 "",
             ]
+        return lines
+    by_cause = causes.set_index("cause")
     for rank, cause in enumerate(selected, start=1):
-        row = causes.set_index("cause").loc[cause["name"]]
-        lines += [
+        row = by_cause.loc[cause["name"]]
+        lines.append(
             f"{rank}. **{code(cause['name'])}**, form *{cause['form']}* ({cause['family']}): "
             f"{text(cause['description'])}. "
             f"It explains {row['explained_share']:.1%} of the offset-free residual variance on its own "
             f"(held-out), changes {code(target)} by {cause['effect_range']:.2f} {unit} peak to peak over the "
-            f"data, p = {cause['p_value']:.2g}. Figure: `results/figures/cause_{rank}.png`."
-        ]
-    if selected:
-        lines.append("")
-    lines += ["## What could not be separated", ""]
+            f"data, p = {cause['p_value']:.2g}. Figure: `{figures}/cause_{rank}.png`."
+        )
+    return lines + [""]
+
+
+def _not_separated(summary: dict) -> list[str]:
     notes = []
     for cause, aliases in summary["aliases"].items():
         if aliases:
@@ -115,8 +148,13 @@ def diagnosis_markdown(
             f"- {code(other)} looks related on its own but adds nothing once {code(cause)} is in (a correlated "
             "neighbour, not the cause)."
         )
-    lines += notes or ["- Nothing: the chosen causes were separated from their correlated neighbours."]
-    lines += [
+    return ["## What could not be separated", ""] + (
+        notes or ["- Nothing: the chosen causes were separated from their correlated neighbours."]
+    )
+
+
+def _gain(gain: pd.DataFrame, unit: str) -> list[str]:
+    lines = [
         "",
         "## Gain of the extended model",
         "",
@@ -124,42 +162,20 @@ def diagnosis_markdown(
         f"RMSE in {unit}:",
         "",
     ]
-    columns = [
-        c
-        for c in (
-            "rmse_in_support_cv",
-            "rmse_out_of_support",
-            "rmse_matched",
-            "rmse_truth_in_support_cv",
-            "rmse_truth_out_of_support",
-        )
-        if c in gain.columns
-    ]
+    columns = [c for c in HEADERS if c in gain.columns]
     lines.append("| model | " + " | ".join(HEADERS[c] for c in columns) + " |")
     lines.append("|---" * (len(columns) + 1) + "|")
     for row in gain.itertuples():
         lines.append(f"| {row.model} | " + " | ".join(_fmt(getattr(row, c)) for c in columns) + " |")
     by_model = gain.set_index("model")
-    hybrid_out, extended_out = (
-        by_model.loc[HYBRID.name, "rmse_out_of_support"],
-        by_model.loc[EXTENDED.name, "rmse_out_of_support"],
-    )
-    lines += [
+    hybrid_out = by_model.loc[HYBRID.name, "rmse_out_of_support"]
+    extended_out = by_model.loc[EXTENDED.name, "rmse_out_of_support"]
+    return lines + [
         "",
         f"Out of the support, where the black-box correction is not trusted, the extended model's RMSE is "
         f"{_fmt(extended_out)} {unit} against {_fmt(hybrid_out)} {unit} for the paper's hybrid "
         f"(filtered-train, no gate): "
         + (f"{1 - extended_out / hybrid_out:.0%} lower." if extended_out < hybrid_out else "no gain."),
         "",
+        f"Evaluated on: {gain['evaluated_on'].iloc[0]}.",
     ]
-    lines.append(f"Evaluated on: {gain['evaluated_on'].iloc[0]}.")
-    if demo_spec is not None:
-        lines += [
-            "",
-            "## Demo check",
-            "",
-            f"The demo plant hides: {demo_spec['hidden_effect_text']}, on top of an offset of "
-            f"{demo_spec['offset_mm']:g} {unit}; measurement noise {demo_spec['noise_mm']:g} {unit} "
-            "(the noise floor of any RMSE against measurements).",
-        ]
-    return "\n".join(lines) + "\n"

@@ -103,5 +103,6 @@ rule diagnosis_report:
         code=PACKAGE_CODE,
         target=TARGET,
         unit=UNIT,
+        figures=FIGURES,
     script:
         "../../scripts/diagnosis_report.py"
