@@ -16,8 +16,12 @@ import sys
 import pandas as pd
 
 from hybridtwin.answers.predictor import Predictor
+from hybridtwin.io.config import default
 from hybridtwin.io.errors import InputError
 from hybridtwin.io.reading import SEPARATORS, CsvFormat
+
+# the models of a run with the default results_dir
+DEFAULT_MODELS = f"{default('results_dir')}/models"
 
 
 def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:
@@ -61,7 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     predict.add_argument("csv", nargs="?", help="CSV of settings, one row each (the run's input column names)")
     predict.add_argument(
-        "--models", default="results/models", help="a workflow run's models folder (default: results/models)"
+        "--models", default=DEFAULT_MODELS, help=f"a workflow run's models folder (default: {DEFAULT_MODELS})"
     )
     predict.add_argument("-o", "--output", help="CSV to write (default: print to the screen)")
     predict.add_argument("--level", type=float, help="interval level, for example 0.9 (default: the run's)")

@@ -22,17 +22,26 @@ from scipy.spatial.distance import cdist
 from sklearn.cluster import KMeans
 
 from hybridtwin.crossval import training_subset
+from hybridtwin.io.config import section_defaults
 from hybridtwin.paper.gate import KNNSupportGate
+
+DEFAULTS = section_defaults("enrichment")
 
 
 @dataclass(frozen=True)
 class EnrichmentSettings:
-    n_points: int = 10
-    recency_weight: float = 1.0  # the newest part weighs 1 + this, the oldest 1
-    margin: float = 0.05  # share of each input's span the limits are widened by
-    n_candidates: int = 200
+    """The config's ``enrichment:`` (its schema's descriptions say what each is), and the run's seed."""
+
+    n_points: int = DEFAULTS["n_points"]
+    recency_weight: float = DEFAULTS["recency_weight"]
+    margin: float = DEFAULTS["margin"]
+    n_candidates: int = DEFAULTS["n_candidates"]
     seed: int = 0
-    max_rows: int | None = None  # parts the choice is made on (a seeded sample of a larger log; None: all)
+    max_rows: int | None = DEFAULTS["max_rows"]  # None: every part
+
+    @classmethod
+    def from_config(cls, settings: dict, seed: int) -> "EnrichmentSettings":
+        return cls(**settings, seed=seed)
 
 
 def recency_weights(n_rows: int, recency_weight: float) -> np.ndarray:

@@ -14,14 +14,7 @@ def main(snakemake):
     p = snakemake.params
     doe, production = read_checked(snakemake.input.doe), read_checked(snakemake.input.production)
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
-    settings = enrichment.EnrichmentSettings(
-        n_points=p.settings["n_points"],
-        recency_weight=p.settings["recency_weight"],
-        margin=p.settings["margin"],
-        n_candidates=p.settings["n_candidates"],
-        seed=p.seed,
-        max_rows=p.settings["max_rows"],
-    )
+    settings = enrichment.EnrichmentSettings.from_config(p.settings, p.seed)
     proposal = enrichment.propose(
         doe[p.inputs].to_numpy(float),
         production[p.inputs].to_numpy(float),

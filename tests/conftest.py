@@ -3,6 +3,7 @@ import signal
 import subprocess
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from hybridtwin import demo
@@ -36,3 +37,18 @@ def small_plant():
 @pytest.fixture(scope="session")
 def small_data(small_plant):
     return demo.generate(small_plant)
+
+
+@pytest.fixture(scope="session")
+def tiny_residual_data():
+    rng = np.random.default_rng(5)
+    X = rng.uniform(0, 1, (200, 3))
+    y = 2 * X[:, 0] - X[:, 1] + 0.1 * rng.normal(size=200)
+    return X, y
+
+
+def pytest_collection_modifyitems(items):
+    """Every test not marked ``scenario`` or ``workflow`` is ``fast`` (the tiers: pyproject's markers)."""
+    for item in items:
+        if not any(item.get_closest_marker(tier) for tier in ("scenario", "workflow")):
+            item.add_marker(pytest.mark.fast)

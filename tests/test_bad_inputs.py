@@ -622,6 +622,7 @@ def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.workflow
 @pytest.mark.parametrize(
     "changes, line",
     [
@@ -645,6 +646,7 @@ def test_workflow_stops_on_a_bad_config_with_one_plain_line(case, changes, line)
     assert not (case.folder / "results").exists()
 
 
+@pytest.mark.workflow
 def test_workflow_stops_on_a_decimal_comma_export_and_leaves_no_output(case):
     case.write(decimal=",")
     before = sha256(case.settings["data"].values())
@@ -659,6 +661,7 @@ def test_workflow_stops_on_a_decimal_comma_export_and_leaves_no_output(case):
     assert list((case.folder / "results").glob("data/*.csv")) == []
 
 
+@pytest.mark.workflow
 def test_workflow_stops_on_a_missing_value(case):
     case.set_cell("production", 12, TARGET, "nan")
     result = run_workflow(case)

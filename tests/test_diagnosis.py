@@ -9,7 +9,9 @@ import pandas as pd
 import pytest
 
 from hybridtwin import diagnosis
-from hybridtwin.crossval import folds
+from hybridtwin.crossval import (
+    folds,
+)
 from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
 from hybridtwin.diagnosis import fits as fitting
 from hybridtwin.diagnosis.causes import Cause
@@ -533,3 +535,35 @@ def test_a_named_form_that_took_a_trends_place_stands_only_where_it_is_significa
     assert settled.form.name == {"trend": "monotone", "named": "linear"}[stays]
     if stays == "trend":
         assert settled.alternatives[0] is settled and settled.alternatives[1] is named
+
+
+def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():
+    from hybridtwin.diagnosis import Candidate, Settings
+    from hybridtwin.diagnosis.fits import value_folds
+
+    rng = np.random.default_rng(0)
+    levels = rng.permutation(np.repeat(np.linspace(0.4, 0.7, 40), 50))  # 40 campaign settings, 50 parts each
+    settings = Settings(folds=5, seed=3)
+    splits = value_folds(Candidate.new("shim", "input", levels, ("shim",)), settings)
+    assert sorted(np.concatenate([test for _, test in splits]).tolist()) == list(range(len(levels)))
+    for train, test in splits:
+        assert not set(levels[train]) & set(levels[test]), "a setting level on both sides of a fold"
+        assert len(np.unique(levels[test])) == 8, "each fold holds out four bins of two levels each"
+    ids = np.array([f"K{i % 30}" for i in range(len(levels))])
+    shuffled = value_folds(Candidate.new("coil", "group", ids, ("coil",)), settings)
+    assert all(set(ids[train]) >= set(ids[test]) for train, test in shuffled), "group levels are seen in training"
+
+
+@pytest.mark.parametrize("with_product, expected", [(False, "additive"), (True, "product")])
+def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(with_product, expected):
+    from hybridtwin import diagnosis
+    from hybridtwin.diagnosis import Candidate, Settings, best_fit
+    from hybridtwin.diagnosis.fits import is_significant
+
+    rng = np.random.default_rng(1)
+    a, b = rng.uniform(-1, 1, (2, 3000))
+    y = 2.0 * a + 3.0 * b + (4.0 * a * b if with_product else 0.0) + rng.normal(0, 0.3, 3000)
+    fit = best_fit(Candidate.new("a*b", "interaction", np.column_stack([a, b]), ("a", "b")), y - y.mean(), Settings())
+    assert fit.form.name == expected
+    assert is_significant(fit, 1, Settings(), min_effect=0.1) == with_product
+    assert diagnosis.forms.FAMILIES[fit.form.name] == ("interaction" if with_product else "additive")

@@ -14,6 +14,7 @@ import pytest
 
 from hybridtwin.demo import families, scenarios
 
+pytestmark = pytest.mark.scenario
 REPLAY = os.environ.get("HYBRIDTWIN_TEST_SEED")
 
 

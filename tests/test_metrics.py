@@ -1,6 +1,7 @@
 """hybridtwin.metrics beyond the paper's indicators (those: test_units.py): empty inputs, lag-1 correlation, the block
 t-test and its batch means."""
 
+import math
 import warnings
 
 import numpy as np
@@ -15,6 +16,7 @@ from hybridtwin.metrics import (
     mae,
     r2,
     rmse,
+    scores,
     signed_rank_p_value,
 )
 
@@ -74,3 +76,27 @@ def test_the_signed_rank_test_weighs_each_block_by_the_rank_of_its_gain():
     mixed = gains_of([0.0, 0.5, 1.0, 1.5, 3.0], 20)
     assert signed_rank_p_value(y, mixed, reference, 5, 5) == pytest.approx(10 / 32)
     assert signed_rank_p_value(y, reference, reference, 5, 5) == 1.0  # no gain anywhere
+
+
+def test_metrics_by_hand():
+    y, yhat = [1, 2, 3, 4], [1.5, 2, 2, 5]
+    # errors (reference - prediction) = [-0.5, 0, 1, -1]
+    assert rmse(y, yhat) == pytest.approx(0.75)  # sqrt((0.25 + 0 + 1 + 1) / 4)
+    assert mae(y, yhat) == pytest.approx(0.625)  # (0.5 + 0 + 1 + 1) / 4
+    assert bias(y, yhat) == pytest.approx(-0.125)  # (-0.5 + 0 + 1 - 1) / 4
+    assert r2(y, yhat) == pytest.approx(0.55)  # 1 - 2.25 / 5
+    assert scores(y, yhat) == pytest.approx({"r2": 0.55, "rmse": 0.75, "mae": 0.625, "bias": -0.125})
+
+
+def test_bias_sign_is_reference_minus_prediction():
+    # under-prediction gives a positive bias
+    assert bias([3, 5], [2, 4]) == pytest.approx(1.0)
+    assert bias([2, 4], [3, 5]) == pytest.approx(-1.0)
+
+
+def test_metric_edges():
+    assert math.isnan(r2([2, 2, 2], [1, 2, 3]))  # constant reference
+    assert r2([1, 2, 3], [1, 2, 3]) == 1.0
+    assert r2([1, 2, 3], [2, 2, 2]) == pytest.approx(0.0)  # predicting the mean
+    for metric in (rmse, mae, bias, r2):
+        assert math.isnan(metric([], []))

@@ -1,10 +1,15 @@
 """Table builders of hybridtwin.tables and the out-of-fold splicing behind every production error."""
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from hybridtwin.crossval import splice_out_of_fold
+from hybridtwin.crossval import (
+    splice_out_of_fold,
+)
+from hybridtwin.paper import residual, tables
 from hybridtwin.paper.tables import dataset_summary, matched_summary, production_predictions, sensitivity_table
 
 
@@ -176,3 +181,74 @@ def test_one_matched_case_has_no_spread_rather_than_none():
 )
 def test_each_table_says_on_what_data_it_was_computed(table, says):
     assert (table()["evaluated_on"] == says).all()
+
+
+def test_matched_summary_by_hand():
+    measured = [10.0, 12.0, 14.0]
+    simulated = [9.0, 12.0, 15.0]
+    surrogate = [9.5, 11.0, 14.5]
+    residual_pred = [0.5, 1.0, -1.0]
+    in_support = [True, True, False]
+    summary, cases = tables.matched_summary(measured, simulated, surrogate, residual_pred, in_support)
+
+    np.testing.assert_allclose(cases["true_residual"], [1.0, 0.0, -1.0])
+    np.testing.assert_allclose(cases["pred_hybrid"], [10.0, 12.0, 13.5])
+    np.testing.assert_allclose(cases["pred_hybrid_gated"], [10.0, 12.0, 14.5])  # surrogate outside the support
+    np.testing.assert_allclose(cases["error_hybrid"], [0.0, 0.0, 0.5])
+    np.testing.assert_allclose(cases["error_hybrid_gated"], [0.0, 0.0, -0.5])
+    np.testing.assert_allclose(cases["error_surrogate"], [0.5, 1.0, -0.5])
+
+    rows = summary.set_index("comparison")
+    assert (rows["n"] == 3).all()
+    res = rows.loc["residual (predicted vs true)"]  # errors [0.5, -1, 0]
+    assert res["rmse"] == pytest.approx(math.sqrt(1.25 / 3))
+    assert res["mae"] == pytest.approx(0.5)
+    assert res["bias"] == pytest.approx(-0.5 / 3)
+    assert res["r2"] == pytest.approx(1 - 1.25 / 2)  # true residual mean 0, SST 2
+    sim = rows.loc["simulation (measured vs FE)"]  # errors [1, 0, -1]
+    assert (sim["rmse"], sim["bias"], sim["error_std"]) == pytest.approx((math.sqrt(2 / 3), 0.0, 1.0))
+    sur = rows.loc["surrogate (measured vs y_FEM_hat)"]  # errors [0.5, 1, -0.5]
+    assert (sur["rmse"], sur["mae"], sur["bias"]) == pytest.approx((math.sqrt(0.5), 2 / 3, 1 / 3))
+    hyb = rows.loc["hybrid (measured vs y_hyb)"]  # errors [0, 0, 0.5]
+    assert hyb["rmse"] == pytest.approx(math.sqrt(0.25 / 3))
+    assert hyb["bias"] == pytest.approx(0.5 / 3)
+    assert hyb["error_mean"] == pytest.approx(0.5 / 3)
+    assert hyb["error_std"] == pytest.approx(math.sqrt(1 / 12))
+    assert hyb["r2"] == pytest.approx(1 - 0.25 / 8)  # measured mean 12, SST 8
+    gat = rows.loc["hybrid gated (measured vs gated y_hyb)"]  # errors [0, 0, -0.5]
+    assert (gat["rmse"], gat["bias"]) == pytest.approx((math.sqrt(0.25 / 3), -0.5 / 3))
+
+
+def test_sensitivity_table_by_hand():
+    predictions = pd.DataFrame(
+        {
+            "measured": [10.0, 10.0, 10.0, 10.0],
+            "in_support": [True, True, False, False],
+            "pred_surrogate": [9.0, 11.0, 8.0, 13.0],  # errors [1, -1, 2, -3]
+            "pred_hybrid_oof": [10.0, 10.5, 9.0, 10.0],  # errors [0, -0.5, 1, 0]
+            "pred_hybrid_unfiltered_oof": [11.0, 10.0, 10.0, 12.0],  # errors [-1, 0, 0, -2]
+        }
+    )
+    table = tables.sensitivity_table(predictions).set_index("region")
+    assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
+    assert table["evaluated_on"].iloc[0].endswith("tuned on in-support rows")
+    noted = tables.sensitivity_table(predictions, residual.capped_note(3, 4))
+    assert noted["evaluated_on"].iloc[0].endswith("at most 3 of its training rows (residual_model.max_train_rows)")
+    expected = {
+        "rmse_surrogate_only": (1.0, math.sqrt(6.5), math.sqrt(15 / 4)),
+        "rmse_filtered_train_no_gate": (math.sqrt(0.125), math.sqrt(0.5), math.sqrt(1.25 / 4)),
+        "rmse_unfiltered_train_no_gate": (math.sqrt(0.5), math.sqrt(2.0), math.sqrt(5 / 4)),
+        # gated: filtered hybrid inside [0, -0.5], surrogate outside [2, -3]
+        "rmse_filtered_train_gated": (math.sqrt(0.125), math.sqrt(6.5), math.sqrt(13.25 / 4)),
+    }
+    for column, (inside, outside, everywhere) in expected.items():
+        got = table[column]
+        assert (got["in_support"], got["out_of_support"], got["all"]) == pytest.approx((inside, outside, everywhere)), (
+            column
+        )
+    assert (
+        table.loc["out_of_support", "rmse_filtered_train_gated"] == table.loc["out_of_support", "rmse_surrogate_only"]
+    )
+    assert (
+        table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
+    )

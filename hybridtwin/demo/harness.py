@@ -50,10 +50,10 @@ class Run:
     n_jobs: int = 1
 
     @classmethod
-    def of(cls, case, seed: int, n_jobs: int = 1, params: dict | None = None, **sections) -> "Run":
-        """A generated plant (:class:`~hybridtwin.demo.families.PlantCase`) with one GPR restart."""
-        sections.setdefault("surrogate", {"n_restarts": 1})
-        config = default_config(case.inputs, case.target, seed, **sections)
+    def of(cls, case, seed: int, n_jobs: int = 1, params: dict | None = None, n_restarts: int = 1, **sections) -> "Run":
+        """A generated plant (:class:`~hybridtwin.demo.families.PlantCase`), with ``n_restarts`` GPR restarts and
+        the config's ``sections`` as given."""
+        config = default_config(case.inputs, case.target, seed, surrogate={"n_restarts": n_restarts}, **sections)
         return cls(case.doe, case.production, config, dict(params or SCENARIO_XGB), n_jobs)
 
     @cached_property

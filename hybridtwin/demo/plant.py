@@ -25,6 +25,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
+from hybridtwin.io.config import section_defaults
+
 TARGET = "draw_in_mm"
 MATCHED_SIMULATED = "draw_in_sim_mm"
 MATCHED_MEASURED = "draw_in_meas_mm"
@@ -87,21 +89,22 @@ class HiddenEffect:
         raise ValueError(f"unknown hidden-effect form {self.form!r}")
 
 
+DEFAULTS = section_defaults("demo")
+
+
 @dataclass(frozen=True)
 class DemoPlant:
-    seed: int = 1
-    n_doe: int = 67
-    n_production: int = 70_000
-    n_matched: int = 7
-    fe_scatter_mm: float = 1.3
-    noise_mm: float = 1.4
-    offset_mm: float = 15.0
+    """The demo plant's settings: the config's ``demo:`` (its defaults are the schema's)."""
+
+    seed: int = DEFAULTS["seed"]
+    n_doe: int = DEFAULTS["n_doe"]
+    n_production: int = DEFAULTS["n_production"]
+    n_matched: int = DEFAULTS["n_matched"]
+    fe_scatter_mm: float = DEFAULTS["fe_scatter_mm"]
+    noise_mm: float = DEFAULTS["noise_mm"]
+    offset_mm: float = DEFAULTS["offset_mm"]
     blanks_per_coil: int = 1800
-    hidden_effect: HiddenEffect = field(
-        default_factory=lambda: HiddenEffect(
-            form="sigmoid", column="die_temp_c", amplitude=-20.0, threshold=50.0, width=3.0
-        )
-    )
+    hidden_effect: HiddenEffect = field(default_factory=lambda: HiddenEffect(**DEFAULTS["hidden_effect"]))
 
 
 def _unit(frame: pd.DataFrame, name: str) -> np.ndarray:

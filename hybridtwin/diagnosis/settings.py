@@ -4,22 +4,29 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hybridtwin.io.config import section_defaults
+
+DEFAULTS = section_defaults("diagnosis")
+
 
 @dataclass(frozen=True)
 class Settings:
-    folds: int = 5
+    """``seed``: the run's seed; ``unit``: the target's, in which the causes' descriptions give effects
+    (config ``units.target``); ``input_units``: (column, unit) pairs of config ``units.inputs``."""
+
+    folds: int = section_defaults("cv")["folds"]
     seed: int = 0
-    alpha: float = 0.01
-    max_causes: int = 3
-    max_levels: int = 200
-    max_rows: int = 10_000
-    surrogate_margin: float = 1.0
-    interactions: bool = True
-    exclude: tuple[str, ...] = ()
-    n_blocks: int = 200
+    alpha: float = DEFAULTS["alpha"]
+    max_causes: int = DEFAULTS["max_causes"]
+    max_levels: int = DEFAULTS["max_levels"]
+    max_rows: int = DEFAULTS["max_rows"]
+    surrogate_margin: float = DEFAULTS["surrogate_margin"]
+    interactions: bool = DEFAULTS["interactions"]
+    exclude: tuple[str, ...] = tuple(DEFAULTS["exclude"])
+    n_blocks: int = DEFAULTS["n_blocks"]
     n_jobs: int = 1
-    unit: str = "mm"  # of the target: the causes' descriptions give effects in it (config units.target)
-    input_units: tuple[tuple[str, str], ...] = ()  # (column, unit) pairs of config units.inputs
+    unit: str = section_defaults("units")["target"]
+    input_units: tuple[tuple[str, str], ...] = ()
 
     @classmethod
     def from_config(

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import functools
 import json
 from pathlib import Path
 
@@ -38,13 +39,24 @@ class ConfigError(InputError):
 
 
 def schema() -> dict:
+    return copy.deepcopy(_schema())
+
+
+@functools.cache
+def _schema() -> dict:
     return yaml.safe_load(SCHEMA_PATH.read_text())
 
 
 def section_defaults(section: str) -> dict:
-    """The defaults of one config section's keys (``peers``: the peers' sizes), as the workflow fills them in."""
-    properties = schema()["properties"][section]["properties"]
-    return {key: spec["default"] for key, spec in properties.items() if "default" in spec}
+    """The defaults of one config section's keys (``peers``: the peers' sizes), as the workflow fills them in:
+    the one source of every in-memory settings object's defaults."""
+    properties = _schema()["properties"][section]["properties"]
+    return {key: copy.deepcopy(spec["default"]) for key, spec in properties.items() if "default" in spec}
+
+
+def default(key: str):
+    """The default of a top-level key (``seed``, ``results_dir``)."""
+    return copy.deepcopy(_schema()["properties"][key]["default"])
 
 
 def _with_defaults(validator_class):

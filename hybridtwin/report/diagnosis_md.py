@@ -45,8 +45,8 @@ def diagnosis_markdown(
     gain: pd.DataFrame,
     target: str,
     unit: str,
-    demo_spec: dict | None = None,
-    figures: str = "results/figures",
+    demo_spec: dict | None,
+    figures: str,
 ) -> str:
     """results/diagnosis.md; ``figures``: the folder of the causes' figures, as the reader finds it."""
     unit = text(unit)

@@ -1,0 +1,147 @@
+"""hybridtwin.io.files: the CSV writer (Arrow's text is pandas' text), output modes, orphaned jobs."""
+
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+
+def _table_to_write():
+    return pd.DataFrame(
+        {
+            "x": [1.0 / 3, np.nan, 1e-9, -2.5e7, np.inf, 43.4761234567, 0.125, -1.5e-20],
+            "n": [1, 2, 3, 4, 5, 6, 7, 8],
+            "text": ["a", "b, with a comma", 'a "quote"', "d", "", None, "ä", "h"],
+            "flag": [True, False, True, False, True, True, False, False],
+        }
+    )
+
+
+def test_csv_writer_with_a_decimal_comma_gives_pandas_float_format_text(tmp_path):
+    from hybridtwin.io import files
+
+    frame = _table_to_write()
+    files.write_csv(frame, tmp_path / "ours.csv", sep=";", decimal=",")
+    frame.to_csv(
+        tmp_path / "pandas.csv", index=False, float_format=files.FLOAT_FORMAT, lineterminator="\n", sep=";", decimal=","
+    )
+    assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp_path, sep):
+    from hybridtwin.io import files
+
+    frame = _table_to_write()
+    files.write_csv(frame, tmp_path / "ours.csv", sep=sep)
+    back = pd.read_csv(tmp_path / "ours.csv", sep=sep, keep_default_na=False, na_values=[""])
+    expected = frame.assign(x=[float(files.FLOAT_FORMAT % value) for value in frame["x"]])
+    expected["text"] = expected["text"].replace("", None)  # an empty text reads back as missing, as with pandas
+    pd.testing.assert_frame_equal(back, expected, check_dtype=False)
+    assert back["x"].tolist()[5] == 43.476123 and back["flag"].dtype == bool
+    # exact digits: every float reads back to itself
+    files.write_csv(frame, tmp_path / "exact.csv", float_format=None, sep=sep)
+    assert pd.read_csv(tmp_path / "exact.csv", sep=sep)["x"].tolist()[5] == 43.4761234567
+
+
+def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path, monkeypatch):
+    from hybridtwin.io import files
+
+    frame = pd.DataFrame(
+        {
+            "x": [1.0 / 3, np.nan, 2.0, -0.0, np.inf, 123456789.0, 0.1],
+            "n": [1, 2, 3, 4, 5, 6, -7],
+            "text": ["a", None, "K26000", "", "ä", "2026-03-02 06:00:00", "b"],
+            "flag": [True, False, True, False, True, True, False],
+        }
+    )
+    arrow_writer, arrow_used = files._write_text_columns, []
+    monkeypatch.setattr(files, "_write_text_columns", lambda *args: arrow_used.append(1) or arrow_writer(*args))
+    for float_format, pandas_format in ((None, None), ("%.3g", "%.3g")):
+        files.write_csv(frame, tmp_path / "ours.csv", float_format=float_format)
+        expected = frame.assign(x=[float(pandas_format % v) for v in frame["x"]]) if pandas_format else frame
+        expected.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
+        assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+    assert len(arrow_used) == 2
+    back = pd.read_csv(tmp_path / "ours.csv")
+    assert back["x"].dtype == float and back["x"].tolist()[2] == 2.0  # a whole float stays a float
+
+
+@pytest.mark.parametrize(
+    "frame",
+    [
+        pd.DataFrame({"x": [1.0, np.nan, 3.0]}),  # one column: pandas writes "" where Arrow would leave a blank line
+        pd.DataFrame({"x": [1, "a"], "y": [1.0, 2.0]}),  # numbers and text in one column
+        pd.DataFrame({"t": pd.to_datetime(["2020-01-01 10:00", "2020-01-02 00:00"]), "y": [1.0, 2.0]}),
+        pd.DataFrame([[1.0, 2.0]], columns=["a", "a"]),  # the same name twice
+        pd.DataFrame({1: [1.0], "1": [2.0]}),  # names that are not text
+        pd.DataFrame({"x": [1.5, 2.5], "y": pd.Categorical(["a", "b"])}),
+        pd.DataFrame({"x": [1.5, 2.5], "n": pd.array([1, None], dtype="Int64")}),
+        pd.DataFrame({"x": [1.5, 2.5], "text": ["a, b", 'say "c"']}),
+        pd.DataFrame({"x, y": [1.5], "z": [2.5]}),
+    ],
+)
+def test_any_other_table_is_written_by_pandas(tmp_path, frame):
+    from hybridtwin.io import files
+
+    files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
+    frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
+    assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])
+def test_an_output_gets_the_mode_of_any_new_file(tmp_path, monkeypatch, mask):
+    from hybridtwin.io import files
+
+    monkeypatch.setattr(files, "_UMASK", mask)
+    files.write_json({"a": 1}, tmp_path / "out.json")
+    assert (tmp_path / "out.json").stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_rounding_to_significant_digits_agrees_with_percent_g(tmp_path):
+    from hybridtwin.io import files
+
+    rng = np.random.default_rng(0)
+    values = np.concatenate(
+        [
+            rng.normal(0, 1, 20_000) * 10.0 ** rng.integers(-300, 300, 20_000),
+            rng.normal(0, 1, 20_000) * 10.0 ** rng.integers(-6, 7, 20_000),  # the sizes of measured values
+            [0.0, -0.0, np.nan, np.inf, -np.inf, 5e-324, 1.7976931348623157e308, 0.125, 0.135, 999.99999999, 9.5],
+        ]
+    )
+    for digits in (1, 2, 8, 10):
+        expected = np.array([float(f"%.{digits}g" % value) for value in values])
+        np.testing.assert_array_equal(files.rounded_to_significant(values, digits), expected)
+    with pytest.raises(ValueError, match="1 to 10 significant"):
+        files.write_csv(pd.DataFrame({"x": [1.0]}), tmp_path / "unused.csv", float_format="%.11g")
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_job_whose_workflow_is_gone_writes_nothing(tmp_path, monkeypatch):
+    import subprocess
+    import sys
+
+    from hybridtwin.io import files
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # reaped: its pid no longer runs
+    target = tmp_path / "best_params.json"
+    target.write_text("the later run's\n")
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, str(gone.pid))
+    with pytest.raises(files.OrphanedJob, match="cannot overwrite"):
+        files.write_json({"params": 1}, target)
+    assert target.read_text() == "the later run's\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["best_params.json"]  # no temporary file left either
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, str(os.getpid()))  # a running workflow: written
+    files.write_json({"params": 1}, target)
+    assert "params" in target.read_text()
+
+
+def test_a_cluster_job_on_another_machine_is_not_taken_for_an_orphan(tmp_path, monkeypatch):
+    from hybridtwin.io import files
+
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT, "999999999")  # no such process here
+    monkeypatch.setenv(files.OWNER_ENVIRONMENT + "_HOST", "another-node")
+    files.write_json({"params": 1}, tmp_path / "best.json")
+    assert (tmp_path / "best.json").exists()
