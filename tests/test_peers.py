@@ -131,7 +131,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
     model = fit.model
     for train, test in crossval.folds(150, 3, 4):
         rows = trained[test]
-        if kind == "gp_discrepancy":
+        if isinstance(model, GPDiscrepancy):
             gp = model.gp_.gpr_
             by_hand = GaussianProcessRegressor(gp.kernel_, normalize_y=True, optimizer=None)
             by_hand.fit(gp.X_train_[train], residuals["residual_approx"].to_numpy()[trained[train]])
@@ -143,7 +143,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
             expected = CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
         np.testing.assert_allclose(honest[rows], expected, rtol=1e-9, atol=1e-9)
         assert not np.allclose(honest[rows], final[rows])  # the final model, which saw them, differs
-    if kind == "gp_discrepancy":  # the rows that chose the hyperparameters are training rows, scored out-of-fold
+    if isinstance(model, GPDiscrepancy):  # the rows that chose the hyperparameters are training rows, out-of-fold
         assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     again = type(model).from_dict(model.to_dict())
     assert np.array_equal(again.training_rows_, model.training_rows_)
@@ -158,7 +158,7 @@ def test_threads_share_the_rows_and_give_the_same_answers(case):
     X, surrogate = case["parts"].iloc[:1250], np.arange(1250.0)  # 13 batches of 100 rows, the last of 50
     alone = peers.predictions_at(models, X, surrogate, n_jobs=1)
     shared = peers.predictions_at(models, X, surrogate, n_jobs=3)
-    for kind in registry.PEER_NAMES:
+    for kind in models:
         assert np.array_equal(shared[kind], alone[kind]), kind
     np.testing.assert_allclose(alone["gp_discrepancy"], surrogate + models["gp_discrepancy"].predict(X))
     assert batches.BATCH_ROWS == 100
@@ -220,17 +220,15 @@ def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, ki
     np.testing.assert_array_equal(again.production.to_numpy(), fit.production.to_numpy())
     assert fit.fit_seconds > 0
     # the training parts are the seed's (the GP's one seed on, so that its rows differ from co-kriging's)
-    offset = 1 if kind == "gp_discrepancy" else 0
+    offset = 1 if isinstance(fit.model, GPDiscrepancy) else 0
     assert np.array_equal(fit.model.training_rows_, crossval.training_subset(750, 150, 3 + offset))
     data = json.loads(json.dumps(fit.model.to_dict()))
-    assert (
-        data["format"] == {"gp_discrepancy": "hybridtwin.GPDiscrepancy/1", "cokriging": "hybridtwin.CoKriging/1"}[kind]
-    )
+    assert data["format"] == f"hybridtwin.{'GPDiscrepancy' if offset else 'CoKriging'}/1"
     assert data["inputs"] == COLUMNS and data["training_rows"] == fit.model.training_rows_.tolist()
     loaded = peers.load_peer(kind, data)
     assert type(loaded) is type(fit.model)
     np.testing.assert_array_equal(loaded.predict(case["new"][COLUMNS[::-1]]), fit.model.predict(case["new"]))
-    with pytest.raises(ValueError, match="^unknown peer 'kriging'; one of gp_discrepancy, cokriging$"):
+    with pytest.raises(ValueError, match=f"^unknown peer 'kriging'; one of {', '.join(registry.PEER_NAMES)}$"):
         peers.fit_peer("kriging", doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3)
 
 

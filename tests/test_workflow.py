@@ -404,7 +404,7 @@ def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
 
     predictor = Predictor.load(run_dir / "results/models")
     assert (
-        predictor.extension_out_of_support
+        predictor.extension.out_of_support
         == files.read_json(run_dir / "results/models/extension.json")["extended_hybrid_out_of_support"]
     )
     production = pd.read_csv(run_dir / "results/demo/production.csv").head(2000)
@@ -412,17 +412,17 @@ def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
     assert inside.any() and (~inside).any()
     # the test run's extension is close to the hybrid: shifted by 5 mm, ignoring the choice would show
     shifted = copy.deepcopy(predictor.extension)
-    shifted.offset_ += 5.0
-    stands = replace(predictor, extension=shifted, extension_out_of_support=True).predictions(
+    shifted.extension.offset_ += 5.0
+    stands = replace(predictor, extension=replace(shifted, out_of_support=True)).predictions(
         production, with_peers=False
     )
-    falls = replace(predictor, extension=shifted, extension_out_of_support=False).predictions(
+    falls = replace(predictor, extension=replace(shifted, out_of_support=False)).predictions(
         production, with_peers=False
     )
     assert np.abs(stands["extended_hybrid"] - stands["hybrid"])[~inside].min() > 1.0
     np.testing.assert_allclose(falls["extended_hybrid"][~inside], falls["hybrid"][~inside])
     np.testing.assert_allclose(falls["extended_hybrid"][inside], stands["extended_hybrid"][inside])
-    remainder = predictor.remainder.predict(production[predictor.inputs].astype(float))
+    remainder = predictor.extension.remainder.predict(production[predictor.inputs].astype(float))
     np.testing.assert_allclose(stands["extended_hybrid"], stands["extended"] + remainder)
 
 

@@ -19,7 +19,12 @@ from hybridtwin.paper.surrogate import GPRSurrogate
 
 
 class GPDiscrepancy(RegressorMixin, BaseEstimator):
-    """A GP of the residual (measured - surrogate); ``predict`` gives the residual correction."""
+    """A GP of the residual (measured - surrogate); ``predict`` gives the residual correction.
+
+    ``surrogate_class``: the GP it fits, with its kernel (a subclass with another ``_kernel`` is another peer).
+    """
+
+    surrogate_class = GPRSurrogate
 
     def __init__(self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, random_state: int = 0):
         self.n_hyper = n_hyper
@@ -39,9 +44,9 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         self.hyper_rows_ = self.training_rows_[
             training_subset(len(self.training_rows_), self.n_hyper, self.random_state)
         ]
-        hyper = GPRSurrogate(n_restarts=self.n_restarts, random_state=self.random_state)
+        hyper = self.surrogate_class(n_restarts=self.n_restarts, random_state=self.random_state)
         hyper.fit(matrix[self.hyper_rows_], y[self.hyper_rows_])
-        self.gp_ = _with_rows(
+        self.gp_ = self._with_rows(
             hyper.to_dict(), hyper.standardizer_.transform(matrix[self.training_rows_]), y[self.training_rows_]
         )
         return self
@@ -54,12 +59,18 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
         out = np.empty(len(y))
         for train, test in folds(len(y), n_folds, seed):
-            out[test] = batched(_with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
+            out[test] = batched(self._with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
         return out
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "gp_")
         return batched(self.gp_.predict, input_matrix(self, X))
+
+    def _with_rows(self, state: dict, Z: np.ndarray, y: np.ndarray) -> GPRSurrogate:
+        """The GP of ``state`` (a surrogate's dict), its hyperparameters fixed, on standardized rows ``Z``
+        (``from_dict`` refits without optimizing)."""
+        rows = {"inputs": None, "X_train": Z.tolist(), "y_train": np.asarray(y).tolist()}
+        return self.surrogate_class.from_dict({**state, **rows})
 
     def to_dict(self) -> dict:
         return {
@@ -74,14 +85,8 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
     @classmethod
     def from_dict(cls, data: dict) -> "GPDiscrepancy":
         model = cls(**data["params"])
-        model.gp_ = GPRSurrogate.from_dict(data["gp"])
+        model.gp_ = cls.surrogate_class.from_dict(data["gp"])
         model.n_features_in_ = model.gp_.n_features_in_
         model.training_rows_ = np.asarray(data["training_rows"], int)
         restore_inputs(model, data)
         return model
-
-
-def _with_rows(state: dict, Z: np.ndarray, y: np.ndarray) -> GPRSurrogate:
-    """The GP of ``state`` (a GPRSurrogate's dict), its hyperparameters fixed, on standardized rows ``Z``
-    (GPRSurrogate.from_dict refits without optimizing)."""
-    return GPRSurrogate.from_dict({**state, "inputs": None, "X_train": Z.tolist(), "y_train": np.asarray(y).tolist()})
