@@ -29,6 +29,16 @@ def run_command(command: list[str], timeout: float, **kwargs) -> subprocess.Comp
     return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
+def says(text: str, *facts: str) -> None:
+    """Prose is checked by its facts (numbers with their units, names), in the order given, not by its wording:
+    a rewording passes, a wrong number, unit, name or order fails."""
+    at = 0
+    for fact in facts:
+        found = text.find(fact, at)
+        assert found >= 0, f"{fact!r} is not in the text (after {text[:at][-60:]!r}): {text!r}"
+        at = found + len(fact)
+
+
 @pytest.fixture(scope="session")
 def small_plant():
     return replace(demo.DemoPlant(), n_production=4000, n_doe=40, n_matched=5, seed=3)

@@ -10,6 +10,7 @@ import yaml
 from hybridtwin import enrichment
 from hybridtwin.io.config import ConfigError, check
 from hybridtwin.paper.gate import KNNSupportGate
+from tests.conftest import says
 
 from .conftest import ROOT
 
@@ -73,7 +74,7 @@ def test_proposals_on_a_sample_of_a_long_log_count_its_parts_and_scale_them_to_t
     assert sum(map(len, sampled.brought_in)) > 100
     table = enrichment.proposals_table(sampled, pd.DataFrame(production, columns=list("abcd")), list("abcd"))
     assert table["parts_brought_in"].tolist() == [3 * len(rows) for rows in sampled.brought_in]
-    assert table["counted_on"].iloc[0].startswith("a seeded sample of 400 of the 1,200 production parts")
+    says(table["counted_on"].iloc[0], "sample", "400", "1,200 production parts")
     # a cap above the log's length counts every part
     whole = enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(3, 1.0, 0.05, 50, 1, 5000))
     table = enrichment.proposals_table(whole, pd.DataFrame(production, columns=list("abcd")), list("abcd"))

@@ -5,6 +5,8 @@ import pytest
 
 from hybridtwin.report.diagnosis_md import diagnosis_markdown
 
+from .conftest import says
+
 CAUSES = pd.DataFrame(
     [
         {"rank": 1, "cause": "die_temp_c", "form": "sigmoid", "explained_share": 0.62, "p_value": 1e-9},
@@ -54,46 +56,42 @@ def _summary(offset, selected=True):
     }
 
 
-@pytest.mark.parametrize("offset, words", [(-3.25, "**3.25 mm lower**"), (7.5, "**7.50 mm higher**")])
-def test_offset_sign_and_size(offset, words):
+@pytest.mark.parametrize("offset, size, direction", [(-3.25, "3.25 mm", "lower"), (7.5, "7.50 mm", "higher")])
+def test_offset_sign_and_size(offset, size, direction):
     text = diagnosis_markdown(CAUSES, _summary(offset), GAIN, "draw-in", "mm", None, "runs/p4/figures")
-    assert f"the measured `draw-in` is {words} than simulated" in text
+    says(text, "## Offset", "`draw-in`", size, direction)
 
 
 def test_names_the_cause_the_table_ranks_first_and_the_id_it_stands_for():
     text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm", None, "runs/p4/figures")
-    assert "1. **`die_temp_c`**, form *sigmoid* (saturating)" in text
-    assert "explains 62.0% of the offset-free residual variance" in text
-    assert "`coil_id` is an id" in text and "`die_temp_c` accounts for 81% of the differences" in text
-    assert "1,234 in-support production parts" in text
-    assert "Figure: `runs/p4/figures/cause_1.png`" in text  # the run's own results folder
+    says(text, "1,234 in-support", "## Causes", "1. **`die_temp_c`**", "sigmoid", "saturating", "62.0%")
+    says(text, "`runs/p4/figures/cause_1.png`")  # the run's own results folder
+    says(text, "`coil_id`", "id", "`die_temp_c`", "81%")
 
 
 def test_out_of_support_gain_in_words():
     text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm", None, "runs/p4/figures")
-    assert "the extended model's RMSE is 1.50 mm against 2.00 mm for the paper's hybrid" in text
-    assert "25% lower." in text
+    says(text, "Out of the support", "extended", "1.50 mm", "2.00 mm", "paper's hybrid", "25% lower")
     worse = GAIN.assign(rmse_out_of_support=[1.0, 1.5])
     assert "no gain." in diagnosis_markdown(CAUSES, _summary(2.0), worse, "draw-in", "mm", None, "runs/p4/figures")
 
 
 def test_says_plainly_when_nothing_is_significant():
     text = diagnosis_markdown(CAUSES, _summary(2.0, selected=False), GAIN, "draw-in", "mm", None, "runs/p4/figures")
-    assert "**No cause beyond the offset is significant.**" in text
-    assert "Strongest candidate, not significant: `die_temp_c`" in text
+    says(text, "No cause beyond the offset is significant", "not significant", "`die_temp_c`")
 
 
 def test_user_names_are_inert_in_markdown_and_html():
     text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "Einzug <b>mm</b>", "m<i>m</i>", None, "figures")
     assert "<b>" not in text.replace("`Einzug <b>mm</b>`", "") and "<i>" not in text
-    assert "# What the simulation gets wrong: `Einzug <b>mm</b>`" in text
+    says(text, "# ", "`Einzug <b>mm</b>`")
     assert "m&lt;i&gt;m&lt;/i&gt;" in text
 
 
 def test_a_sample_of_the_in_support_parts_is_stated():
     summary = {**_summary(2.0), "n_rows": 10_000, "n_in_support": 11_823}
     text = diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm", None, "runs/p4/figures")
-    assert "a seeded random sample of 10,000 of the 11,823 in-support production parts" in text
+    says(text, "sample", "10,000", "11,823 in-support")
     assert "| model | in support (CV) | out of support |" in text
 
 

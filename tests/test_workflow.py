@@ -28,7 +28,7 @@ from hybridtwin.io import files
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate
 
-from .conftest import ROOT, run_command
+from .conftest import ROOT, run_command, says
 
 pytestmark = pytest.mark.workflow
 TEST_CONFIG = os.path.join(ROOT, "config", "test.yaml")
@@ -141,8 +141,7 @@ def test_diagnosis_report_states_the_data(run_dir):
     text = (results / "diagnosis.md").read_text()
     residuals = pd.read_csv(results / "residuals/production_residuals.csv")
     offset = residuals.loc[residuals["in_support"].astype(bool), "residual_approx"].mean()
-    words = f"**{abs(offset):.2f} mm {'higher' if offset > 0 else 'lower'}**"
-    assert f"On average the measured `draw_in_mm` is {words} than simulated" in text
+    says(text, "`draw_in_mm`", f"{abs(offset):.2f} mm", "higher" if offset > 0 else "lower")
     summary = json.loads((results / "diagnosis/diagnosis.json").read_text())
     assert summary["offset"] == pytest.approx(offset)
     causes = pd.read_csv(results / "tables/discrepancy_causes.csv")
