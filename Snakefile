@@ -7,7 +7,12 @@ from pathlib import Path
 from snakemake.utils import min_version
 
 sys.path.insert(0, workflow.basedir)  # the package beside this file, installed or not
-from hybridtwin.io.config import ConfigError, check, missing_data_files  # noqa: E402 (light: no numpy, pandas)
+from hybridtwin.io.config import (  # noqa: E402 (light: no numpy, pandas)
+    ConfigError,
+    check,
+    missing_data_files,
+    plant_results_dir,
+)
 
 min_version("9.0")
 
@@ -18,6 +23,12 @@ configfile: "config/config.yaml"
 # one schema, shipped in the package, for keys, types, ranges and defaults; a bad value or a data
 # file that does not exist stops the run with one plain line naming the key (before any job runs)
 try:
+    plant_results_dir(
+        config,
+        workflow.overwrite_configfiles,
+        workflow.config_settings.overwrite_config,
+        Path(workflow.basedir, "config/config.yaml"),
+    )
     check(config)
     missing_data_files(config, made_by_the_workflow=[Path(config["results_dir"], "demo")])
 except ConfigError as error:

@@ -54,3 +54,20 @@ def test_a_changed_schema_default_reaches_the_settings(monkeypatch):
     schema["properties"]["diagnosis"]["properties"]["alpha"]["default"] = 0.02
     monkeypatch.setattr(config, "_schema", lambda: schema)
     assert config.section_defaults("diagnosis")["alpha"] == 0.02
+
+
+def test_a_plants_config_without_results_dir_writes_under_its_own_name(tmp_path):
+    workflow_config, plant, named = tmp_path / "config.yaml", tmp_path / "press4.yaml", tmp_path / "named.yaml"
+    workflow_config.write_text("seed: 1\n")
+    plant.write_text("seed: 2\n")
+    named.write_text("results_dir: runs/p4\n")
+
+    def results_dir(files, command_line=None):
+        settings = {}
+        config.plant_results_dir(settings, files, command_line, workflow_config)
+        return settings.get("results_dir")
+
+    assert results_dir([plant]) == "results/press4"  # never into the demo's results/
+    assert results_dir([plant, named]) is None  # the plant names its own (kept as it is)
+    assert results_dir([plant], {"results_dir": "x"}) is None  # --config results_dir=x
+    assert results_dir([workflow_config]) is None and results_dir([]) is None  # the demo's own run

@@ -126,10 +126,27 @@ def describe(error: jsonschema.ValidationError) -> str:
     return f"config error: {key or 'the config'} = {_value(error.instance)}, {says}"
 
 
+def plant_results_dir(config: dict, configfiles, command_line: dict | None, workflow_config) -> None:
+    """A plant's own config file that names no ``results_dir`` writes under ``results/<its file's name>``, never
+    into the demo's ``results/`` (``--configfile`` extends the workflow's own config, which names none).
+
+    ``configfiles``: the command line's ``--configfile`` files; ``command_line``: its ``--config`` values.
+    """
+    own = [Path(path) for path in configfiles or () if Path(path).resolve() != Path(workflow_config).resolve()]
+    if not own or "results_dir" in (command_line or {}):
+        return
+    if any("results_dir" in (yaml.safe_load(path.read_text()) or {}) for path in own):
+        return
+    config["results_dir"] = f"{default('results_dir')}/{own[-1].stem}"
+
+
 def missing_data_files(config: dict, made_by_the_workflow=()) -> None:
     """Stop with a :class:`ConfigError` naming the ``data.*`` key whose file does not exist
     (paths under ``made_by_the_workflow``, such as the demo plant's, are written by the run)."""
     for role, path in config.get("data", {}).items():
         if Path(path).exists() or any(Path(path).is_relative_to(folder) for folder in made_by_the_workflow):
             continue
-        raise ConfigError(f"config error: data.{role} = {path!r}, no such file{other_csvs(Path(path))}")
+        hint = other_csvs(Path(path))
+        if Path(path).parent.name == "demo" and made_by_the_workflow:
+            hint += f"; this run makes the demo plant's files under {str(made_by_the_workflow[0])!r}"
+        raise ConfigError(f"config error: data.{role} = {path!r}, no such file{hint}")
