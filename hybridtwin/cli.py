@@ -1,10 +1,12 @@
-"""The ``hybridtwin`` command: what-if predictions from a finished workflow run's models.
+"""The ``hybridtwin`` command: questions to a finished workflow run's models.
 
-    hybridtwin predict NEW.csv --models results/models -o OUT.csv [--level 0.9]
-    hybridtwin predict --models results/models --set die_temp_c=55 --set thickness_mm=0.7 ...
+    hybridtwin predict NEW.csv --models results/models -o OUT.csv        # a table of settings
+    hybridtwin predict --models results/models --set die_temp_c=60       # typical production, one input changed
+    hybridtwin sweep --models results/models --vary die_temp_c=20:110:46 -o sweep.csv --plot sweep.png
 
-The CSV is read with the run's conventions (csv.sep, csv.decimal, column names)
-and the same checks; bad input ends with the workflow's message and exit status 1.
+Every answer carries its trust verdict (validated, calibrated, extrapolation) and the reason in words. A CSV is
+read with the run's conventions (csv.sep, csv.decimal, column names) and the same checks; bad input ends with
+one line and exit status 1.
 """
 
 from __future__ import annotations
@@ -13,108 +15,117 @@ import argparse
 import logging
 import sys
 
-import pandas as pd
-
-from hybridtwin.answers.predictor import Predictor
 from hybridtwin.io.config import default
 from hybridtwin.io.errors import InputError
-from hybridtwin.io.reading import SEPARATORS, CsvFormat
+from hybridtwin.io.reading import ENCODINGS, SEPARATORS, CsvFormat
 
 # the models of a run with the default results_dir
 DEFAULT_MODELS = f"{default('results_dir')}/models"
+SEPARATOR_NAMES = {name: sep for sep, name in SEPARATORS.items()}
 
 
-def _settings(pairs: list[str], predictor: Predictor) -> pd.DataFrame:
-    """--set NAME=VALUE pairs as a one-row table; every input must be given."""
-    values = {}
-    for pair in pairs:
-        name, sep, value = pair.partition("=")
-        if not sep:
-            raise InputError(f"--set {pair!r}: write NAME=VALUE, for example --set {predictor.inputs[0]}=1.0")
-        number = value.strip()
-        if predictor.csv.decimal == ",":
-            number = number.replace(",", ".", 1) if "." not in number else "not a number"
-        try:
-            values[name.strip()] = float(number)
-        except ValueError:
-            hint = " (the run's decimal mark is '.': write 0.75, without digit grouping)" if "," in value else ""
-            raise InputError(f"--set {pair!r}: value {value!r} of {name.strip()!r} is not a number{hint}") from None
-    unknown = [name for name in values if name not in predictor.inputs]
-    missing = [name for name in predictor.inputs if name not in values]
-    if unknown or missing:
-        raise InputError(
-            "--set: "
-            + "; ".join(
-                part
-                for part in (
-                    f"unknown input(s) {', '.join(map(repr, unknown))}" if unknown else "",
-                    f"missing input(s) {', '.join(map(repr, missing))}" if missing else "",
-                )
-                if part
-            )
-            + f". The models take {', '.join(predictor.inputs)}"
-        )
-    return pd.DataFrame([values])
+def _common(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--models", default=DEFAULT_MODELS, help=f"a run's models folder (default: {DEFAULT_MODELS})")
+    command.add_argument("-o", "--output", help="CSV to write (default: show the answer on the screen)")
+    command.add_argument("--level", type=float, help="interval level, for example 0.9 (default: the run's)")
+    command.add_argument(
+        "--set", action="append", default=[], metavar="NAME=VALUE", help="an input's value (repeat for more)"
+    )
+    command.add_argument("--base", metavar="FILE.csv", help="take the inputs not set from a row of this CSV")
+    command.add_argument("--base-row", type=int, default=1, metavar="N", help="that row, from 1 (default: 1)")
+    command.add_argument(
+        "--all-models", action="store_true", help="add every model's prediction and the regions' bookkeeping"
+    )
+    command.add_argument("--jobs", type=int, help="threads for the peers (default: every core this process may use)")
+    command.add_argument(
+        "--sep", choices=list(SEPARATOR_NAMES), help="the CSV files' separator, if not the run's csv.sep"
+    )
+    command.add_argument("--decimal", choices=["point", "comma"], help="decimal mark, if not the run's csv.decimal")
+    command.add_argument("--encoding", choices=list(ENCODINGS), help="text encoding, if not the run's csv.encoding")
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="hybridtwin", description=__doc__.split("\n\n")[0])
-    commands = parser.add_subparsers(dest="command", required=True)
+def parser() -> argparse.ArgumentParser:
+    top = argparse.ArgumentParser(prog="hybridtwin", description=__doc__.split("\n\n")[0])
+    commands = top.add_subparsers(dest="command", required=True)
     predict = commands.add_parser(
-        "predict", help="predict the target for new settings, with an interval and the in/out-of-domain verdict"
+        "predict", help="predict the target for new settings, with an interval and a trust verdict"
     )
     predict.add_argument("csv", nargs="?", help="CSV of settings, one row each (the run's input column names)")
-    predict.add_argument(
-        "--models", default=DEFAULT_MODELS, help=f"a workflow run's models folder (default: {DEFAULT_MODELS})"
-    )
-    predict.add_argument("-o", "--output", help="CSV to write (default: print to the screen)")
-    predict.add_argument("--level", type=float, help="interval level, for example 0.9 (default: the run's)")
-    predict.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="one setting for a one-off question, instead of a CSV (repeat for each input)",
-    )
-    predict.add_argument(
-        "--without-peers",
-        action="store_true",
-        help="skip the GP discrepancy and co-kriging (faster on large tables; where one of them is "
-        "a region's best model, the next one is recommended)",
-    )
-    predict.add_argument(
-        "--jobs",
-        type=int,
-        help="threads for the peers' predictions (default: every core this process may use; "
-        "the answers do not depend on it)",
-    )
-    predict.add_argument("--sep", choices=list(SEPARATORS), help="CSV separator, if not the run's csv.sep")
-    predict.add_argument("--decimal", choices=[".", ","], help="decimal mark, if not the run's csv.decimal")
-    return parser
+    _common(predict)
+    sweep = commands.add_parser("sweep", help="the answer along one input, the others held, as a table and a figure")
+    sweep.add_argument("--vary", required=True, metavar="NAME=LOW:HIGH:N", help="the input, its range and N values")
+    sweep.add_argument("--plot", metavar="FILE.png", help="the figure to write")
+    _common(sweep)
+    return top
 
 
-def predict(args) -> None:
-    predictor = Predictor.load(args.models, with_peers=not args.without_peers)
-    fmt = CsvFormat.from_config(
-        {"sep": args.sep or predictor.csv.sep, "decimal": args.decimal or predictor.csv.decimal}
+def _format(args, predictor) -> CsvFormat:
+    return CsvFormat(
+        SEPARATOR_NAMES[args.sep] if args.sep else predictor.csv.sep,
+        {"point": ".", "comma": ","}[args.decimal] if args.decimal else predictor.csv.decimal,
+        args.encoding or predictor.csv.encoding,
+        fix="flag",
     )
-    if bool(args.csv) == bool(args.set):
-        raise InputError("give either a CSV file of settings or --set NAME=VALUE for every input, not both")
-    frame = predictor.read(args.csv, fmt) if args.csv else _settings(args.set, predictor)
-    answers = predictor.predict(frame, args.level, with_peers=not args.without_peers, n_jobs=args.jobs)
+
+
+def question(args, predictor, fmt: CsvFormat, varied: dict | None = None):
+    """The settings asked about: a CSV of them, or one row from --set, --base and typical production
+    (``varied``: a sweep's input, set by the sweep)."""
+    from hybridtwin.answers import whatif
+
+    if getattr(args, "csv", None):
+        if args.set or args.base:
+            raise InputError("give a CSV file of settings, or --set / --base for one question: not both")
+        return predictor.read(args.csv, fmt)
+    values = {**whatif.pairs(args.set, predictor.inputs), **(varied or {})}
+    if args.base:
+        table = predictor.read(args.base, fmt)
+        base = whatif.base_row(table, args.base_row, predictor.inputs, f"--base {args.base!r}")
+        return whatif.filled(values, predictor.inputs, base, f"{args.base} row {args.base_row}")
+    if not values and args.command == "predict":
+        raise InputError(
+            "nothing asked: give a CSV file of settings, or --set NAME=VALUE (the inputs not set take typical "
+            "production values)"
+        )
+    return whatif.filled(values, predictor.inputs, predictor.typical, "typical production (median in support)")
+
+
+def run(args) -> None:
+    from hybridtwin.answers import answer
+    from hybridtwin.answers.predictor import Predictor
+
+    predictor = Predictor.load(args.models)
+    fmt = _format(args, predictor)
+    if args.command == "sweep":
+        from hybridtwin.answers import whatif
+
+        name, values = whatif.sweep_values(args.vary, predictor.inputs)
+        frame = whatif.sweep_frame(question(args, predictor, fmt, {name: values[0]}), name, values)
+    else:
+        frame = question(args, predictor, fmt)
+    answers = predictor.predict(frame, args.level, args.all_models, args.jobs)
+    if args.command == "sweep" and args.plot:
+        _plot(predictor, answers, name, args.plot)
     if args.output:
         predictor.write(answers, args.output, fmt)
         logging.getLogger("hybridtwin").info("%d row(s) written to %s", len(answers), args.output)
     else:
-        shown = answers.T if len(answers) == 1 else answers
-        print(shown.to_string())
+        print(answer.on_screen(answers, predictor.inputs, predictor.spec["unit"]))
+
+
+def _plot(predictor, answers, name: str, path: str) -> None:
+    from hybridtwin.io import files
+    from hybridtwin.report import plots
+
+    figure = plots.sweep(answers, name, predictor.doe_range[name], predictor.spec["target"], predictor.spec["unit"])
+    files.save_figure(figure, path)
 
 
 def main(argv=None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(levelname)s: %(message)s", stream=sys.stderr)
-    args = _parser().parse_args(argv)
+    args = parser().parse_args(argv)
     try:
-        predict(args)
+        run(args)
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1

@@ -27,6 +27,27 @@ def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nda
     return list(KFold(n_splits=n_folds, shuffle=True, random_state=seed).split(np.arange(n_rows)))
 
 
+def period_folds(n_rows: int, n_folds: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """K folds of consecutive rows (a log in time order: K periods), (train, test) index pairs.
+
+    A row's out-of-fold prediction then comes from a model that never saw its period: its campaign, its coil,
+    its hour; the error of a period the model has not seen is the error the next production period meets.
+    """
+    if n_rows < n_folds:
+        raise ValueError(f"{n_rows} rows are fewer than the {n_folds} CV folds")
+    period = np.arange(n_rows) * n_folds // n_rows
+    return [(np.flatnonzero(period != k), np.flatnonzero(period == k)) for k in range(n_folds)]
+
+
+def ids_of(splits, n_rows: int) -> np.ndarray:
+    """Each row's fold (1..K) in ``splits``: written beside out-of-fold predictions so that a later step
+    scores on the very same split."""
+    ids = np.zeros(n_rows, int)
+    for fold, (_, test) in enumerate(splits, start=1):
+        ids[test] = fold
+    return ids
+
+
 def fold_ids(n_rows: int, n_folds: int, seed: int) -> np.ndarray:
     """Each row's fold (1..n_folds) in :func:`folds`' split: written beside out-of-fold predictions so that
     a later step scores on the very same split."""
@@ -50,15 +71,18 @@ def written_splits(written: pd.DataFrame, rows) -> list[tuple[np.ndarray, np.nda
     return splits_of(written["fold"])
 
 
-def cross_validate(estimator, X, y, n_folds: int, seed: int, after_fold=None) -> tuple[pd.DataFrame, np.ndarray]:
+def cross_validate(
+    estimator, X, y, n_folds: int, seed: int, after_fold=None, splits=None
+) -> tuple[pd.DataFrame, np.ndarray]:
     """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only.
 
-    ``after_fold(rows)``, if given, sees the per-fold metrics so far after each fold (to stop early).
+    ``splits``: the (train, test) pairs (default: shuffled K-fold of ``seed``); ``after_fold(rows)``, if given,
+    sees the per-fold metrics so far after each fold (to stop early).
     """
     X, y = np.asarray(X, float), np.asarray(y, float)
     oof = np.empty_like(y)
     rows = []
-    for fold, (train, test) in enumerate(folds(len(y), n_folds, seed), start=1):
+    for fold, (train, test) in enumerate(splits or folds(len(y), n_folds, seed), start=1):
         model = clone(estimator).fit(X[train], y[train])
         oof[test] = model.predict(X[test])
         n_train = getattr(model, "n_fitted_", len(train))  # a model that fits on a sample of its rows says so

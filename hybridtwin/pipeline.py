@@ -96,32 +96,48 @@ def residual_model(production, residual_table, spec: Spec, training: str, params
 
 @dataclass
 class ResidualCV:
-    per_fold: pd.DataFrame
-    oof: pd.DataFrame  # row, pred_residual_oof, fold: the split the extension is scored on too
-    table: pd.DataFrame  # Table 3's row
+    per_fold: pd.DataFrame  # the table's folds
+    oof: pd.DataFrame  # row, pred_residual_oof, fold: out of period, the split the extension is scored on too
+    table: pd.DataFrame  # Table 3's row (the filtered model)
 
 
 def residual_cv(production, residual_table, spec: Spec, training: str, params: dict) -> ResidualCV:
-    """Step 5b: K-fold CV of the residual model with the tuned hyperparameters, on a split other than the
-    tuning's (so the score is not the winning trial's own)."""
-    from hybridtwin.crossval import cross_validate, cv_table, fold_ids
+    """Step 5b: the residual model with the tuned hyperparameters, cross-validated.
+
+    Table 3 is the paper's shuffled K-fold CV, on a split other than the tuning's (so the score is not the winning
+    trial's own). The out-of-fold predictions every later step scores on are out of period: K folds of
+    consecutive parts, so that a part is predicted by a model that never saw its campaign, its coil or its hour
+    (the errors the next production period meets). The model trained on every part has only the latter.
+    """
+    from hybridtwin.crossval import cross_validate, ids_of, period_folds
     from hybridtwin.paper.residual import capped_note, evaluation_seed, make_model
 
     rows, X, y = _training(production, residual_table, spec, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
-    seed = evaluation_seed(spec.seed)
-    per_fold, oof = cross_validate(model, X, y, spec.folds, seed)
-    fold = fold_ids(len(y), spec.folds, seed)
-    table = cv_table(
+    periods = period_folds(len(y), spec.folds)
+    per_period, oof = cross_validate(model, X, y, spec.folds, spec.seed, splits=periods)
+    if training == "filtered":
+        per_fold, shuffled = cross_validate(model, X, y, spec.folds, evaluation_seed(spec.seed))
+        split = f"{spec.folds}-fold CV on a split other than the tuning's"
+    else:
+        per_fold, shuffled, split = per_period, oof, f"{spec.folds} folds of consecutive parts (periods)"
+    table = _cv_summary(per_fold, y, shuffled, training, split + capped_note(spec.max_train_rows, len(y)))
+    fold = ids_of(periods, len(y))
+    return ResidualCV(per_fold, pd.DataFrame({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
+
+
+def _cv_summary(per_fold, y, oof, training: str, split: str) -> pd.DataFrame:
+    from hybridtwin.crossval import cv_table
+
+    where = "in support" if training == "filtered" else "all"
+    return cv_table(
         per_fold,
         y,
         oof,
         f"XGBoost residual model ({training} train)",
-        f"approximate residuals of {len(y)} production rows ({'in support' if training == 'filtered' else 'all'}), "
-        f"{spec.folds}-fold CV on a split other than the tuning's; hyperparameters were tuned by CV on the "
-        "in-support rows" + capped_note(spec.max_train_rows, len(y)),
+        f"approximate residuals of {len(y)} production rows ({where}), {split}; hyperparameters were tuned by CV on "
+        "the in-support rows",
     )
-    return ResidualCV(per_fold, pd.DataFrame({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
 
 
 def hybrid_predictions(production, residual_table, support_table, models: dict, oof: dict, spec: Spec):
@@ -201,22 +217,13 @@ def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame
     return pd.concat([part.reset_index(drop=True) for part in parts], axis=1)
 
 
-def calibrate(predictions, production, doe, spec: Spec, threshold: float, settings: dict, truth=None):
+def calibrate(predictions, production, doe, spec: Spec, threshold: float, settings: dict, truth=None, units=None):
     """Regions, intervals and the recommended model per region (``settings``: the config's ``intervals``)."""
     from hybridtwin.answers import coverage
 
     doe_range = {name: (float(doe[name].min()), float(doe[name].max())) for name in spec.inputs}
-    return coverage.calibrate(
-        predictions,
-        production[list(spec.inputs)],
-        doe_range,
-        threshold,
-        settings["level"],
-        settings["distance_bins"],
-        settings["blocks"],
-        spec.seed,
-        truth,
-    )
+    inputs = production[list(spec.inputs)]
+    return coverage.calibrate(predictions, inputs, doe_range, threshold, settings, spec.seed, truth, units)
 
 
 def matched_predictions(matched, spec: Spec, extension_table, cases, peer_models: dict, surrogate_model) -> dict:
@@ -252,3 +259,34 @@ def comparison(
         truth,
         noise,
     )
+
+
+def typical(production: pd.DataFrame, inside, columns) -> dict[str, float]:
+    """Typical production: each numeric column's median over the in-support parts (what a one-off question's
+    unset inputs take)."""
+    parts = production.loc[np.asarray(inside, bool), list(columns)]
+    return {name: float(parts[name].median()) for name in columns if pd.api.types.is_numeric_dtype(parts[name])}
+
+
+def cause_sweeps(predictor, causes: list[dict], production: pd.DataFrame, n_values: int = 61) -> list:
+    """Per named cause (diagnosis.json's ``selected``): the answer along its column at typical production, over the
+    range of the DoE's and production's values widened by a tenth each side; None for a cause no sweep can show
+    (a coil or lot id). Other causes' columns are held at their typical values too."""
+    from hybridtwin.answers import whatif
+
+    sweeps = []
+    typical = predictor.typical
+    for cause in causes:
+        column = cause["columns"][0]
+        if cause["kind"] == "group" or column not in typical:
+            sweeps.append(None)
+            continue
+        values = production[column].to_numpy(float)
+        low, high = np.min(values), np.max(values)
+        if column in predictor.doe_range:
+            low, high = min(low, predictor.doe_range[column][0]), max(high, predictor.doe_range[column][1])
+        low, high = low - 0.1 * (high - low), high + 0.1 * (high - low)
+        base = pd.DataFrame([{name: typical[name] for name in typical}])
+        frame = whatif.sweep_frame(base, column, np.linspace(low, high, n_values))
+        sweeps.append((column, predictor.predict(frame)))
+    return sweeps

@@ -4,7 +4,9 @@ manifest."""
 from hybridtwin import pipeline
 from hybridtwin.answers import coverage, predictor
 from hybridtwin.io import files
-from hybridtwin.io.files import read_checked
+from hybridtwin.diagnosis.causes import unit_of
+from hybridtwin.diagnosis.extension import Models
+from hybridtwin.io.files import in_support, read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
 from hybridtwin.models import peers
 from hybridtwin.paper.surrogate import GPRSurrogate
@@ -18,12 +20,16 @@ def main(snakemake):
     threshold = float(files.read_json(snakemake.input.gate)["threshold"])
     truth, noise = demo_truth(snakemake.input)
     level = p.settings["level"]
-    production = read_checked(snakemake.input.production, spec.inputs)
-    result = pipeline.calibrate(predictions, production, doe, spec, threshold, p.settings, truth)
+    causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
+    columns = [*spec.inputs, *sorted(causes - set(spec.inputs))]
+    production = read_checked(snakemake.input.production, columns)
+    units = {name: unit_of(name, p.input_units) for name in columns}
+    result = pipeline.calibrate(predictions, production, doe, spec, threshold, p.settings, truth, units)
     files.write_csv(result.table, snakemake.output.table)
+    settings = {"inputs": spec.inputs, "target": spec.target, "unit": p.unit, "csv": p.csv, "level": level}
+    typical = pipeline.typical(production, in_support(predictions), columns)
     files.write_json(
-        predictor.manifest(spec.inputs, spec.target, p.unit, p.csv, doe, result.intervals, level, threshold),
-        snakemake.output.manifest,
+        predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units), snakemake.output.manifest
     )
     matched = read_checked(snakemake.input.matched)
     peer_models = {name: peers.load_peer(name, files.read_json(snakemake.input[f"peer_{name}"])) for name in p.peers}

@@ -241,9 +241,21 @@ def test_latin1_text_names_line_column_and_byte(case):
         "0xdf",
         "row 7 (line 8)",
         "column 'supplier'",
+        "csv.encoding: 'windows-1252'",
         "CSV UTF-8",
-        "Latin-1",
     )
+
+
+def test_a_windows_1252_export_reads_with_its_encoding_and_a_file_that_is_neither_still_stops(case):
+    case.frames["production"]["supplier"] = "Stahlwerk"
+    case.frames["production"].loc[6, "supplier"] = "Gie\u00dferei H\u00e4rtel \u2013 \u00b0C"  # en dash: 0x96 in 1252
+    case.write(encoding="cp1252")
+    case.settings["csv"]["encoding"] = "windows-1252"
+    assert case.load()["production"].loc[6, "supplier"] == "Gie\u00dferei H\u00e4rtel \u2013 \u00b0C"
+    path = case.path("production")
+    raw = path.read_bytes()
+    path.write_bytes(raw.replace(b"Stahlwerk", b"Stahl\x81werk", 1))  # a byte Windows-1252 leaves undefined
+    fails(case, "production file", "not windows-1252 text either", "0x81", "column 'supplier'", "CSV UTF-8")
 
 
 # --- columns: absent, near misses, duplicated, separator -------------------------------------------------------

@@ -3,8 +3,10 @@
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import beta
 
 from hybridtwin.answers import coverage, intervals, regions
+from tests.conftest import says
 
 LEVEL = 0.9
 Z90 = 1.6449  # two-sided 90% of a standard normal
@@ -260,11 +262,13 @@ def test_the_choice_compares_models_on_the_same_parts():
     assert intervals._ranking(measured, candidates, np.arange(n)) == ["hybrid", "gp_discrepancy"]
 
 
-def _half_width(errors, level: float) -> float:
-    """Split-conformal half-width by hand: the k-th largest calibration error, k = (1 - level)(n + 1) rounded
-    down as crepes rounds it (in floating point, so that k = 89, not 90, for n = 449 at 80%)."""
-    errors = np.sort(np.round(np.asarray(errors, float), 6))[::-1]
-    return float(errors[int((1 - level) * (len(errors) + 1)) - 1])
+def _half_width(errors, level: float, delta: float = 0.1) -> float:
+    """Training-conditional split-conformal half-width by hand: the k-th smallest calibration error for the
+    smallest k whose coverage, Beta(k, n + 1 - k), falls below ``level`` with probability at most ``delta``."""
+    errors = np.sort(np.round(np.asarray(errors, float), 6))
+    n = len(errors)
+    k = next(k for k in range(1, n + 1) if beta.cdf(level, k, n + 1 - k) <= delta)
+    return float(errors[k - 1])
 
 
 def _predictions_table(n=4000, seed=2):
@@ -295,18 +299,22 @@ def _predictions_table(n=4000, seed=2):
 def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     table, inputs, truth = _predictions_table()
     n, level = len(table), 0.8
-    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 3, 8, 0, truth=truth)
+    settings = {"level": level, "distance_bins": 3, "blocks": 8}
+    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0, truth=truth)
     inside = table["in_support"].to_numpy()
     beyond = inputs["t"].to_numpy() > 10
     distance, measured = table["knn_distance"].to_numpy(), table["measured"].to_numpy()
     calibration = (np.arange(n) // (n // 8)) % 2 == 0
     assert np.array_equal(calibrated.calibration, calibration)
-    # bins: equal-count over the calibration rows out of the support or beyond the DoE's range
-    outside = calibration & ~(inside & ~beyond)
+    # bins: equal-count over the calibration rows out of the support; the gate's rows beyond the DoE's range
+    # (too few for a region of their own here) take the nearest bin's interval
+    outside = calibration & ~inside
     edges = np.quantile(distance[outside], [1 / 3, 2 / 3])
     region = np.where(
         inside & ~beyond, "in_support", [f"out_of_support_{b}" for b in np.searchsorted(edges, distance, "right") + 1]
     )
+    region[inside & beyond] = "out_of_support_1"
+    assert 0 < np.sum(calibration & inside & beyond) < 100 and not calibrated.intervals.beyond_region
     assert calibrated.region.interval.tolist() == region.tolist()
     assert calibrated.region.choice.tolist() == np.where(inside, "in_support", region).tolist()
     # the paper's gated hybrid: the residual model in the gate, the surrogate outside it
@@ -326,11 +334,15 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
         "out_of_support_3",
         "all",
     }
+    # test rows beyond every calibrated part (further, or further beyond the DoE's range) get no interval
+    t = inputs["t"].to_numpy()
+    usable = ~((~inside & (distance > distance[calibration & ~inside].max())) | (t - 10 > (t[calibration] - 10).max()))
+    assert not usable.all()
     for name in ("in_support", "out_of_support_1", "out_of_support_3"):
         for model in ("hybrid", "surrogate"):
             prediction = honest[model]
             cal = calibration & (region == name)
-            test = ~calibration & (region == name)
+            test = ~calibration & (region == name) & usable
             half = _half_width(np.abs(measured[cal] - prediction[cal]), level)
             row = rows.loc[(name, model, "by_region")]
             assert row["n_test"] == test.sum() and row["n_calibration"] == cal.sum()
@@ -340,6 +352,9 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
             assert row["rmse_test"] == pytest.approx(np.sqrt(np.mean((measured[test] - prediction[test]) ** 2)))
             assert row["rmse_truth_test"] == pytest.approx(np.sqrt(np.mean((truth[test] - prediction[test]) ** 2)))
             assert row["nominal_level"] == level
+            covered, n_test = round(row["coverage"] * row["n_test"]), row["n_test"]
+            assert row["coverage_low"] == pytest.approx(beta.ppf(0.025, covered, n_test - covered + 1))
+            assert row["coverage_high"] == pytest.approx(beta.ppf(0.975, covered + 1, n_test - covered))
             # one pooled calibration: every calibration row's error
             pooled = _half_width(np.abs(measured[calibration] - prediction[calibration]), level)
             assert rows.loc[(name, model, "pooled"), "mean_width"] == pytest.approx(2 * pooled, abs=1e-5)
@@ -350,7 +365,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     assert rows.loc[("out_of_support_3", "hybrid", "by_region"), "region_label"] == (
         f"out of support, distance above {edges[1]:.3g}"
     )
-    assert rows.loc[("all", "hybrid", "by_region"), "n_test"] == (~calibration).sum()
+    assert rows.loc[("all", "hybrid", "by_region"), "n_test"] == (~calibration & usable).sum()
     # the recommended model: its flag on its own row and on the 'recommended' rows only
     flagged = calibrated.table[calibrated.table["recommended"]]
     for name, model in calibrated.intervals.recommended.items():
@@ -372,19 +387,13 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
         f"out of support, distance {edges[0]:.3g} to {edges[1]:.3g}"
     )
     # one distance bin, no truth
-    one_bin = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, level, 1, 8, 0).table
+    one_bin = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, {**settings, "distance_bins": 1}, 0).table
     assert set(one_bin["region"]) == {"in_support", "out_of_support_1", "all"}
     labels = dict(zip(one_bin["region"], one_bin["region_label"]))
     assert labels["out_of_support_1"] == "out of support (every distance)"
     assert labels["all"] == "all production rows"
     assert "coverage_truth" not in one_bin and "rmse_truth_test" not in one_bin
-    assert one_bin["evaluated_on"].iloc[0] == (
-        "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
-        "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
-        "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
-        "seen), models never trained on the row outside it (a peer's out-of-fold on the parts it trained on too); "
-        "coverage of the measured value"
-    )
+    says(one_bin["evaluated_on"].iloc[0], "test rows", "odd blocks", "even blocks", "out of period", "extrapolation")
 
 
 def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
@@ -426,3 +435,44 @@ def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
     blended = fitted.with_stack(honest, region)["stack"]
     np.testing.assert_allclose(blended[inside], X[inside] @ weights)
     assert np.isnan(blended[~inside]).all()
+
+
+@pytest.mark.parametrize("n", [30, 60, 150, 1000])
+def test_the_interval_holds_its_level_on_nine_calibration_draws_in_ten_however_few_the_parts(n):
+    # normal errors: a half-width h covers 2*Phi(h) - 1 of new parts; over 2,000 seeded calibration draws the
+    # rule's intervals cover at least 90% in at least 90% of the draws, and the plain quantile's in about half
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(n)
+    draws = np.abs(rng.normal(size=(2000, n)))
+    rank, plain = intervals.conformal_rank(n, 0.9), int(np.ceil((n + 1) * 0.9))
+    sorted_draws = np.sort(draws, axis=1)
+    covers = 2 * norm.cdf(sorted_draws[:, rank - 1]) - 1
+    plain_covers = 2 * norm.cdf(sorted_draws[:, plain - 1]) - 1
+    assert np.mean(covers >= 0.9) >= 0.88
+    assert 0.3 < np.mean(plain_covers >= 0.9) < 0.75
+    assert intervals.conformal_rank(n, 0.9, delta=0.5) in (plain - 1, plain)  # the median draw: the plain quantile
+
+
+def test_too_few_calibration_parts_for_the_level_give_no_interval():
+    assert intervals.min_calibration_rows(0.9) == 22 and intervals.min_calibration_rows(0.99) == 230
+    assert intervals.conformal_rank(21, 0.9) is None and intervals.conformal_rank(22, 0.9) == 22
+    fitted = intervals.RegionIntervals({"hybrid": {"in_support": list(np.arange(30.0))}}, {}, [], None)
+    assert np.isnan(fitted.interval("hybrid", [1.0], ["in_support"], 0.99)[0][0])  # 30 parts: not for 99%
+    lower, upper = fitted.interval("hybrid", [1.0], ["in_support"], 0.9)
+    assert upper[0] - 1.0 == 29.0  # the 30th smallest of 30 errors 0..29
+
+
+def test_gate_rows_beyond_a_doe_range_get_an_interval_region_of_their_own_when_enough_calibrate_it():
+    table, inputs, _ = _predictions_table(seed=3)
+    inside = table["in_support"].to_numpy()
+    t = inputs["t"].to_numpy().copy()
+    t[inside & (np.arange(len(t)) % 3 == 0)] = 11.0  # a third of the gate's parts, beyond the DoE's 10
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": 8}
+    calibrated = coverage.calibrate(table, pd.DataFrame({"t": t}), {"t": (0.0, 10.0)}, 1.0, settings, 0)
+    beyond = inside & (t > 10)
+    assert calibrated.intervals.beyond_region
+    assert set(calibrated.region.interval[beyond]) == {"beyond_doe_range"}  # its interval: from parts like it
+    assert set(calibrated.region.choice[beyond]) == {"in_support"}  # its model: the support's, which learnt them
+    labels = dict(zip(calibrated.table["region"], calibrated.table["region_label"]))
+    says(labels["beyond_doe_range"], "inside the gate", "beyond a DoE range")

@@ -129,7 +129,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
     assert np.array_equal(honest[untrained], final[untrained])
     # each fold by hand: the final model's hyperparameters on the other folds' rows only
     model = fit.model
-    for train, test in crossval.folds(150, 3, 4):
+    for train, test in crossval.period_folds(150, 3):  # out of period: three stretches of consecutive parts
         rows = trained[test]
         if isinstance(model, GPDiscrepancy):
             gp = model.gp_.gpr_

@@ -7,15 +7,18 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.stats import beta
 
 from hybridtwin.answers.intervals import (
     MAX_CALIBRATION_ROWS,
     RegionIntervals,
     honest_predictions,
+    min_calibration_rows,
     recommended_prediction,
     subsample,
 )
 from hybridtwin.answers.regions import (
+    MIN_CALIBRATION_ROWS,
     Regions,
     as_regions,
     calibration_rows,
@@ -23,6 +26,7 @@ from hybridtwin.answers.regions import (
     outside_range,
     region_label,
 )
+from hybridtwin.answers.trust import EXTRAPOLATION, Reach, verdicts
 from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
@@ -64,6 +68,7 @@ def coverage_table(
     level: float,
     truth=None,
     seed: int = 0,
+    usable=None,
 ) -> pd.DataFrame:
     """prediction_intervals.csv: on the test rows, per region and model, coverage, mean width and RMSE.
 
@@ -79,7 +84,7 @@ def coverage_table(
     for method, labels, method_edges in (("by_region", by_region, edges), ("pooled", pooled, [])):
         fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
         methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
-    scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed)
+    scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed, usable)
     test = ~calibration
     rows = []
     for name in [*methods["by_region"][0].regions, "all"]:
@@ -103,6 +108,15 @@ def coverage_table(
     return table
 
 
+def clopper_pearson(covered: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """The exact binomial interval of a coverage measured as ``covered`` of ``n`` parts: what ``n`` test parts
+    can tell of it (on 60 parts, a measured 90% is anything from about 80% to 96%)."""
+    tail = (1 - confidence) / 2
+    low = beta.ppf(tail, covered, n - covered + 1) if covered > 0 else 0.0
+    high = beta.ppf(1 - tail, covered + 1, n - covered) if covered < n else 1.0
+    return float(low), float(high)
+
+
 @dataclass(frozen=True)
 class Scored:
     """How one model's intervals (or the recommended model's) are scored on a region's test rows."""
@@ -111,10 +125,14 @@ class Scored:
     truth: np.ndarray | None
     level: float
     seed: int
+    usable: np.ndarray | None = None  # the rows the predictor gives an interval (not trust's extrapolation)
 
     def row(self, fitted: tuple, region_rows: np.ndarray, model: str) -> dict | None:
-        """Coverage, width and RMSE on a seeded sample of the rows where the model has a value (None: none)."""
+        """Coverage (with its 95% Clopper-Pearson interval), width and RMSE on a seeded sample of the rows where
+        the model has a value (None: none)."""
         intervals, labels, predictions = fitted
+        if self.usable is not None:
+            region_rows = region_rows[self.usable[region_rows]]
         # a model is sampled among the rows it has a value for (a peer predicts a sample of a long log)
         valued = region_rows if model == RECOMMENDED else region_rows[np.isfinite(predictions[model][region_rows])]
         idx = subsample(valued, MAX_TEST_ROWS, self.seed)
@@ -124,10 +142,12 @@ class Scored:
             return None
         idx, prediction, lower, upper = idx[ok], prediction[ok], lower[ok], upper[ok]
         measured = self.measured[idx]
+        covered = int(np.sum((measured >= lower) & (measured <= upper)))
         row = {
             "nominal_level": self.level,
             "n_test": len(idx),
-            "coverage": float(np.mean((measured >= lower) & (measured <= upper))),
+            "coverage": covered / len(idx),
+            **dict(zip(("coverage_low", "coverage_high"), clopper_pearson(covered, len(idx)))),
             "mean_width": float(np.mean(upper - lower)),
             "rmse_test": rmse(measured, prediction),
         }
@@ -141,10 +161,10 @@ class Scored:
 def _evaluated_on(n_test: int, with_truth: bool) -> str:
     return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
-        "the model (even blocks); predictions out-of-fold inside the support (the paper's shuffled K-fold, so a "
-        "test part's neighbours in time were in the training folds: in-support coverage is that of periods already "
-        "seen), models never trained on the row outside it (a peer's out-of-fold on the parts it trained on too); "
-        "coverage of the measured value"
+        "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
+        "model that predicted a part saw its period), models never trained on the row outside it (a peer's out of "
+        "period on the parts it trained on too); rows beyond every calibrated part (trust: extrapolation) get no "
+        "interval and are not scored; coverage of the measured value, with its 95% Clopper-Pearson interval"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"
             if n_test > MAX_TEST_ROWS
@@ -170,23 +190,28 @@ def calibrate(
     inputs: pd.DataFrame,
     doe_range: dict[str, tuple[float, float]],
     threshold: float,
-    level: float,
-    n_bins: int,
-    n_blocks: int,
+    settings: dict,
     seed: int,
     truth=None,
+    units: dict | None = None,
 ) -> Calibration:
-    """Regions, intervals and recommended models from results/predictions/production.csv, and their test table."""
-    beyond = (outside_range(inputs, doe_range) != 0).any(axis=1).to_numpy()
+    """Regions, intervals and recommended models from results/predictions/production.csv, and their test table
+    (``settings``: the config's ``intervals``: level, distance_bins, blocks)."""
+    level = settings["level"]
+    amounts = outside_range(inputs, doe_range)
+    beyond = (amounts != 0).any(axis=1).to_numpy()
     inside = in_support(predictions)
     distance = predictions["knn_distance"].to_numpy(float)
-    calibration = calibration_rows(len(predictions), n_blocks)
-    edges = distance_edges(distance[calibration & ~(inside & ~beyond)], n_bins)
-    region = Regions.of(inside, beyond, distance, edges)
+    calibration = calibration_rows(len(predictions), settings["blocks"])
+    least = max(MIN_CALIBRATION_ROWS, min_calibration_rows(level))
+    edges = distance_edges(distance[calibration & ~inside], settings["distance_bins"], least)
+    region = Regions.of(inside, beyond, distance, edges, np.sum(calibration & inside & beyond) >= least)
     honest = honest_predictions(predictions)
     measured = predictions["measured"].to_numpy(float)
-    fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed)
-    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed)
+    reach = Reach.of(amounts[calibration], distance[calibration], ~inside[calibration], threshold, doe_range, units)
+    fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
+    usable = verdicts(inside, amounts, distance, reach)[0] != EXTRAPOLATION
+    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])

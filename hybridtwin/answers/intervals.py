@@ -8,8 +8,9 @@ In each region:
 - the **recommended model** is the one with the lowest RMSE on the calibration
   rows (honest predictions only: out-of-fold inside the support, models never
   trained on the row outside), all models compared on the same rows;
-- its **interval** is split-conformal (Mondrian, by region; ``crepes``) on the
-  calibration rows' absolute errors.
+- its **interval** is split-conformal (Mondrian: by region) on the calibration rows' absolute errors,
+  with the finite-sample, training-conditional rule of :func:`conformal_rank`: the interval holds at least
+  its level with probability ``1 - DELTA`` over the calibration parts, however few a region has.
 
 A row inside the gate but beyond the DoE's range in some input takes the
 support's model (the models learnt from such parts) and an interval calibrated
@@ -22,11 +23,13 @@ not in the calibration set; the coverage table is computed on the test rows only
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pandas as pd
-from crepes import ConformalRegressor
+from scipy.stats import beta
 
-from hybridtwin.answers.regions import IN_SUPPORT, MIN_CALIBRATION_ROWS, Regions, as_regions
+from hybridtwin.answers.regions import BEYOND_RANGE, IN_SUPPORT, MIN_CALIBRATION_ROWS, Regions, as_regions
 from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models import compose, registry
@@ -38,6 +41,28 @@ STACK = registry.STACK.name
 
 
 MAX_CALIBRATION_ROWS = 5000
+# the intervals hold at least their level with this probability over the draw of a region's calibration parts
+# (a small region's errors are a small sample: its plain conformal quantile covers less than the level half the time)
+DELTA = 0.1
+
+
+@functools.cache
+def conformal_rank(n: int, level: float, delta: float = DELTA) -> int | None:
+    """The rank (1-based, among ``n`` calibration errors sorted up) of the interval's half-width, or None when
+    ``n`` errors are too few for ``level``.
+
+    With the k-th smallest of n exchangeable errors, the coverage of a new part is Beta(k, n + 1 - k) over the
+    draw of the calibration parts (Vovk 2012, training-conditional conformal prediction); k is the smallest rank
+    whose coverage falls below ``level`` with probability at most ``delta``.
+    """
+    ranks = np.arange(1, n + 1)
+    good = ranks[beta.cdf(level, ranks, n + 1 - ranks) <= delta]
+    return int(good[0]) if len(good) else None
+
+
+def min_calibration_rows(level: float, delta: float = DELTA) -> int:
+    """The fewest errors for which :func:`conformal_rank` gives an interval at ``level``: level^n <= delta."""
+    return int(np.ceil(np.log(delta) / np.log(level)))
 
 
 def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
@@ -92,17 +117,20 @@ class RegionIntervals:
         edges: list[float],
         max_distance: float | None,
         weights: dict[str, dict[str, float]] | None = None,
+        reach: dict[str, list[float]] | None = None,
+        beyond_region: bool = False,
     ):
         self.calibration = calibration
         self.ranking = ranking
         self.weights = weights or {}
         self.edges = list(edges)
         self.max_distance = max_distance
-        self._conformal = {}
-        for model, per_region in calibration.items():
-            labels = np.concatenate([[region] * len(errors) for region, errors in per_region.items()]).astype(object)
-            errors = np.concatenate([np.asarray(errors, float) for errors in per_region.values()])
-            self._conformal[model] = ConformalRegressor().fit(errors, bins=labels)
+        self.reach = reach or {}
+        self.beyond_region = beyond_region  # rows in the gate beyond a DoE range have an interval region of their own
+        self._sorted = {
+            model: {region: np.sort(np.asarray(errors, float)) for region, errors in per_region.items()}
+            for model, per_region in calibration.items()
+        }
 
     @classmethod
     def fit(
@@ -114,7 +142,9 @@ class RegionIntervals:
         edges: list[float],
         distance=None,
         seed: int = 0,
+        reach=None,
     ) -> "RegionIntervals":
+        """``reach``: what calibrated the intervals (:class:`trust.Reach`), stored for the trust verdicts."""
         measured = np.asarray(measured, float)
         region = as_regions(region)
         members = stack_members(honest)
@@ -142,6 +172,9 @@ class RegionIntervals:
                     table.setdefault(model, {})[name] = np.round(
                         np.abs(measured[scored] - prediction[scored]), 6
                     ).tolist()
+        if reach is not None:
+            beyond_region = BEYOND_RANGE in set(region.interval[calibration])
+            return cls(table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region)
         outside = calibration & (region.interval != IN_SUPPORT)
         max_distance = (
             float(np.max(np.asarray(distance, float)[outside])) if outside.any() and distance is not None else None
@@ -167,17 +200,21 @@ class RegionIntervals:
         """The regions with calibrated intervals."""
         return sorted({name for per_region in self.calibration.values() for name in per_region})
 
+    def half_width(self, model: str, region: str, level: float) -> float:
+        """The interval's half-width of ``model`` in ``region`` at ``level``; NaN where the region has no
+        calibration errors of the model, or too few for the level (:func:`conformal_rank`)."""
+        errors = self._sorted.get(model, {}).get(region)
+        rank = None if errors is None or not len(errors) else conformal_rank(len(errors), float(level))
+        return float(errors[rank - 1]) if rank else float("nan")
+
     def interval(self, model: str, prediction, region, level: float) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds at ``level``; NaN in a region without calibration rows."""
+        """Lower and upper bounds at ``level``; NaN in a region without calibration rows (or too few)."""
         prediction = np.asarray(prediction, float)
         region = np.asarray(region, object)
-        lower = np.full(len(prediction), np.nan)
-        upper = np.full(len(prediction), np.nan)
-        known = np.isin(region, list(self.calibration.get(model, {}))) & np.isfinite(prediction)
-        if known.any():
-            bounds = self._conformal[model].predict_int(prediction[known], bins=region[known], confidence=level)
-            lower[known], upper[known] = bounds[:, 0], bounds[:, 1]
-        return lower, upper
+        half = np.full(len(prediction), np.nan)
+        for name in set(region.tolist()):
+            half[region == name] = self.half_width(model, name, level)
+        return prediction - half, prediction + half
 
     def recommend(self, region, predictions: dict[str, np.ndarray] | None = None) -> np.ndarray:
         """The recommended model's name per row: the best of its region's ranking that has a value there
@@ -200,6 +237,8 @@ class RegionIntervals:
             "ranking": self.ranking,
             "distance_edges": self.edges,
             "max_calibrated_distance": self.max_distance,
+            "calibrated_reach": self.reach,
+            "beyond_region": self.beyond_region,
             "stack_weights": self.weights,
         }
 
@@ -211,6 +250,8 @@ class RegionIntervals:
             data["distance_edges"],
             data["max_calibrated_distance"],
             data.get("stack_weights"),
+            data.get("calibrated_reach"),
+            data.get("beyond_region", False),
         )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 IN_SUPPORT = "in_support"
+BEYOND_RANGE = "beyond_doe_range"
 MIN_CALIBRATION_ROWS = 100
 
 
@@ -50,25 +51,30 @@ def describe_outside(beyond: pd.DataFrame, doe_range: dict[str, tuple[float, flo
     return texts.tolist()
 
 
-def distance_edges(distance_out: np.ndarray, n_bins: int) -> list[float]:
+def distance_edges(distance_out: np.ndarray, n_bins: int, min_rows: int = MIN_CALIBRATION_ROWS) -> list[float]:
     """Inner edges of equal-count distance bins over the out-of-support calibration rows.
 
-    Fewer bins when there are too few rows for each to hold ``MIN_CALIBRATION_ROWS``.
+    Fewer bins (merged) when there are too few rows for each to hold ``min_rows``: enough for the level asked
+    (:func:`intervals.min_calibration_rows`), and never fewer than ``MIN_CALIBRATION_ROWS``.
     """
-    n_bins = max(1, min(n_bins, len(distance_out) // MIN_CALIBRATION_ROWS))
+    n_bins = max(1, min(n_bins, len(distance_out) // max(min_rows, MIN_CALIBRATION_ROWS)))
     if n_bins == 1:
         return []
     edges = np.quantile(np.asarray(distance_out, float), np.arange(1, n_bins) / n_bins)
     return [float(edge) for edge in np.unique(edges)]
 
 
-def regions(in_support, beyond_range, distance, edges) -> np.ndarray:
-    """Region label per row: 'in_support' or 'out_of_support_<bin>' (bins from 1, nearest first)."""
-    inside = np.asarray(in_support, bool) & ~np.asarray(beyond_range, bool)
+def regions(in_support, beyond_range, distance, edges, beyond_region: bool = False) -> np.ndarray:
+    """Region label per row: 'in_support', 'out_of_support_<bin>' (bins of the distance to the DoE, from 1, nearest
+    first), and for a row inside the gate but beyond a DoE range 'beyond_doe_range' (with ``beyond_region``: enough
+    such parts calibrated an interval of their own) or else the nearest bin's."""
+    inside = np.asarray(in_support, bool)
+    beyond = inside & np.asarray(beyond_range, bool)
     bins = np.searchsorted(np.asarray(edges, float), np.asarray(distance, float), side="right")
     names = np.array([out_of_support_region(b) for b in range(1, len(edges) + 2)], dtype=object)
     labels = names[bins]
-    labels[inside] = IN_SUPPORT
+    labels[inside & ~beyond] = IN_SUPPORT
+    labels[beyond] = BEYOND_RANGE if beyond_region else out_of_support_region(1)
     return labels
 
 
@@ -86,10 +92,10 @@ class Regions:
     interval: np.ndarray
 
     @classmethod
-    def of(cls, in_support, beyond_range, distance, edges) -> "Regions":
+    def of(cls, in_support, beyond_range, distance, edges, beyond_region: bool = False) -> "Regions":
         return cls(
             regions(in_support, np.zeros(len(distance), bool), distance, edges),
-            regions(in_support, beyond_range, distance, edges),
+            regions(in_support, beyond_range, distance, edges, beyond_region),
         )
 
     @classmethod
@@ -115,6 +121,8 @@ def calibration_rows(n_rows: int, n_blocks: int) -> np.ndarray:
 def region_label(name: str, edges: list[float], threshold: float) -> str:
     if name == IN_SUPPORT:
         return "in support"
+    if name == BEYOND_RANGE:
+        return f"inside the gate (distance up to {threshold:.3g}), beyond a DoE range"
     index = int(name.rsplit("_", 1)[1])
     low = edges[index - 2] if index >= 2 else None
     high = edges[index - 1] if index - 1 < len(edges) else None

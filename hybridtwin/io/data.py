@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.io.errors import InputError
-from hybridtwin.io.reading import CsvFormat, _line, _numeric_extras, load_table, warn
+from hybridtwin.io.reading import CsvFormat, _line, _numeric_extras, load_table, require_columns, warn
 
 
 @dataclass(frozen=True)
@@ -109,6 +109,11 @@ def load_matched(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.Dat
     numeric = [*columns.inputs, columns.matched_simulated, columns.matched_measured]
     matched = load_table(path, "matched", numeric, fmt, _config_keys(columns, "matched_simulated", "matched_measured"))
     return _numeric_extras(matched, numeric, fmt)
+
+
+def require_inputs(frame: pd.DataFrame, inputs, where: str) -> None:
+    """Stop when a table asked about lacks one of the models' inputs; name near misses."""
+    require_columns(frame, list(inputs), where, "columns.inputs (the models' inputs)")
 
 
 def load_whatif(path, inputs, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:

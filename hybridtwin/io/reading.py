@@ -25,21 +25,38 @@ class DataWarning(UserWarning):
     """The data are usable but odd; the run goes on."""
 
 
+# separators the config may name, and how a message (and the command line) calls an export written with them
+SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
+# the text encodings a file may have (csv.encoding): Python's codec for each; German Excel's CSV is Windows-1252
+ENCODINGS = {"utf-8": "utf-8-sig", "windows-1252": "cp1252"}
+
+
 @dataclass(frozen=True)
 class CsvFormat:
-    """How the CSV files are written (``csv:`` in the config)."""
+    """How the CSV files are written (``csv:`` in the config), and where a user changes it: ``fix`` 'config'
+    (the workflow's files) or 'flag' (the command line's)."""
 
     sep: str = ","
     decimal: str = "."
+    encoding: str = "utf-8"
+    fix: str = "config"
 
     @classmethod
     def from_config(cls, config: dict) -> "CsvFormat":
-        """From the checked config's ``csv:`` (the schema lists the separators and decimal marks)."""
-        return cls(config["sep"], config["decimal"])
+        """From the checked config's ``csv:`` (the schema lists the separators, decimal marks and encodings)."""
+        return cls(config["sep"], config["decimal"], config.get("encoding", "utf-8"))
 
+    @property
+    def codec(self) -> str:
+        return ENCODINGS[self.encoding]
 
-# separators the config may name, and how a message calls an export written with them
-SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
+    def setting(self, key: str, value: str) -> str:
+        """How the user sets ``key`` (sep, decimal, encoding) to ``value``: in the config, or with a flag."""
+        if self.fix == "flag":
+            shown = {"sep": SEPARATORS, "decimal": {".": "point", ",": "comma"}}.get(key, {}).get(value, value)
+            return f"--{key} {shown}"
+        shown = '"\\t"' if value == "\t" else repr(value)
+        return f"csv.{key}: {shown} in the config"
 
 
 # cell texts that mean "no value" (compared in lower case); an empty cell means the same
@@ -52,7 +69,7 @@ def _line(row_index: int) -> str:
 
 
 def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:
-    """The file's text; stop on workbooks, binary content and text that is not UTF-8."""
+    """The file's text; stop on workbooks, binary content and text that is not in the file's encoding."""
     if raw.startswith(b"PK\x03\x04"):
         raise InputError(
             f"{where} is an Excel workbook (.xlsx) or another zip archive, not a CSV text file: "
@@ -73,16 +90,21 @@ def _decode(raw: bytes, where: str, fmt: CsvFormat) -> str:
             "export the table as 'CSV UTF-8'"
         )
     try:
-        return raw.decode("utf-8-sig")
+        return raw.decode(fmt.codec)
     except UnicodeDecodeError as error:
         at = error.start
         line = raw.count(b"\n", 0, at) + 1
         place = "the header (line 1)" if line == 1 else _line(line - 2)
+        if fmt.encoding != "utf-8":
+            raise InputError(
+                f"{where} is not {fmt.encoding} text either: byte 0x{raw[at]:02x} in {place}"
+                f"{_column_at(raw, at, fmt)}, offset {at}, means nothing in it; save the file as 'CSV UTF-8'"
+            ) from None
         char = bytes([raw[at]]).decode("cp1252", errors="replace")
         raise InputError(
-            f"{where} is not UTF-8 text: byte 0x{raw[at]:02x} ({char!r} in Latin-1/Windows-1252) in "
-            f"{place}{_column_at(raw, at, fmt)}, offset {at}; save the file as 'CSV UTF-8', or "
-            "convert it from Latin-1/Windows-1252 (e.g. iconv -f WINDOWS-1252 -t UTF-8)"
+            f"{where} is not UTF-8 text: byte 0x{raw[at]:02x} ({char!r} in Windows-1252) in "
+            f"{place}{_column_at(raw, at, fmt)}, offset {at}; an Excel export in Windows-1252 (German Excel's "
+            f"'CSV'): set {fmt.setting('encoding', 'windows-1252')}; or save the file as 'CSV UTF-8'"
         ) from None
 
 
@@ -106,9 +128,8 @@ def _separator_hint(header: list[str], fmt: CsvFormat) -> str:
         if sep == fmt.sep:
             continue
         if (len(header) == 1 and sep in header[0]) or (sep in ";\t|" and any(sep in str(h) for h in header)):
-            shown = '"\\t"' if sep == "\t" else f"'{sep}'"
-            decimal = " (and csv.decimal: ',' if its numbers are written like 0,71)" if sep == ";" else ""
-            return f" — this looks like a {name}-separated export: set csv.sep: {shown} in the config{decimal}"
+            decimal = f" (and {fmt.setting('decimal', ',')} if its numbers are written like 0,71)" if sep == ";" else ""
+            return f" — this looks like a {name}-separated export: set {fmt.setting('sep', sep)}{decimal}"
     return ""
 
 
@@ -124,7 +145,8 @@ def _ragged_hint(header: list[str], fields: list[str], fmt: CsvFormat) -> str:
     ):
         return (
             " — this looks like a decimal comma in a comma-separated file: each number splits in two at its "
-            "comma. Export with csv.sep: ';' and csv.decimal: ',' (the European Excel CSV), or quote the values"
+            f"comma. Export with {fmt.setting('sep', ';')} and {fmt.setting('decimal', ',')} (the European Excel "
+            "CSV), or quote the values"
         )
     return (
         f" — a stray {SEPARATORS.get(fmt.sep, repr(fmt.sep))} at the end of the line, or a text value "
@@ -201,7 +223,7 @@ def _looks_like(value: str, header: list[str], fmt: CsvFormat) -> str:
         return hint
     value = value.strip()
     if fmt.decimal == "." and value.count(",") == 1 and "." not in value and _is_number(value.replace(",", ".")):
-        return " — this looks like a decimal comma (European Excel export): set csv.decimal: ',' in the config"
+        return f" — this looks like a decimal comma (European Excel export): set {fmt.setting('decimal', ',')}"
     if fmt.decimal == "." and "," in value and "." in value and _is_number(value.replace(",", "")):
         return " — a thousands separator? export the numbers without digit grouping"
     if fmt.decimal == "," and "." in value and _is_number(value.replace(".", "").replace(",", ".")):
@@ -321,7 +343,7 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
     numbers parsed exactly (round trip), each row indexed by its place in the file.
     """
     try:
-        with open(path, encoding="utf-8-sig", newline="") as handle:
+        with open(path, encoding=fmt.codec, newline="") as handle:
             first = handle.readline()
         header = next(csv.reader([first], delimiter=fmt.sep, skipinitialspace=True))
         names = [name.strip() for name in header]
@@ -337,7 +359,7 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
             na_filter=False,
             skip_blank_lines=False,
             skipinitialspace=True,
-            encoding="utf-8-sig",
+            encoding=fmt.codec,
             float_precision="round_trip",
             engine="c",
         )
@@ -379,3 +401,20 @@ def _all_numbers(series: pd.Series, fmt: CsvFormat) -> bool:
 
 def warn(message: str) -> None:
     warnings.warn(message, DataWarning, stacklevel=2)
+
+
+def checked_numbers(frame: pd.DataFrame, columns, where: str, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
+    """The ``columns`` of a table in memory as floats, with the checks a CSV's get: the first empty, non-numeric
+    or infinite cell stops with one line naming the column and the row (rows counted from 1)."""
+    out = {}
+    for column in columns:
+        values = frame[column]
+        if pd.api.types.is_numeric_dtype(values) and not pd.api.types.is_bool_dtype(values):
+            numbers = values.to_numpy(float)
+            if np.isfinite(numbers).all():
+                out[column] = numbers
+                continue
+        text = frame[[column]].astype(object).where(frame[[column]].notna(), "").astype(str)
+        text.index = np.arange(len(frame))
+        out[column] = numeric_column(text, column, where, fmt).to_numpy(float)
+    return pd.DataFrame(out, index=frame.index)

@@ -11,7 +11,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import folds, training_subset
+from hybridtwin.crossval import period_folds, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
 
@@ -84,13 +84,14 @@ class CoKriging(RegressorMixin, BaseEstimator):
         return self
 
     def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
-        """Per high-fidelity row (in ``training_rows_`` order): co-kriging, its hyperparameters fixed, refitted
-        without that row's fold (the simulations kept)."""
+        """Per high-fidelity row (in ``training_rows_`` order, which is time order): co-kriging, its
+        hyperparameters fixed, refitted without that row's period (``n_folds`` folds of consecutive rows; the
+        simulations kept; ``seed`` unused)."""
         check_is_fitted(self, "mfk_")
         _, FixedMFK = _mfk_class()
         X, y = self.data_["X_high"], self.data_["y_high"]
         out = np.empty(len(y))
-        for train, test in folds(len(y), n_folds, seed):
+        for train, test in period_folds(len(y), n_folds):
             model = FixedMFK(self.hyperparameters_, **self._options())
             self._train(model, self.data_["X_low"], self.data_["y_low"], X[train], y[train])
             out[test] = batched(model.predict_values, self.standardizer_.transform(X[test]))

@@ -12,7 +12,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import folds, training_subset
+from hybridtwin.crossval import period_folds, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
 from hybridtwin.paper.surrogate import GPRSurrogate
@@ -52,13 +52,14 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         return self
 
     def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
-        """Per training row (in ``training_rows_`` order): the GP, its hyperparameters fixed, refitted
-        without that row's fold."""
+        """Per training row (in ``training_rows_`` order, which is time order): the GP, its hyperparameters
+        fixed, refitted without that row's period (``n_folds`` folds of consecutive training rows; ``seed`` unused,
+        the split has no randomness)."""
         check_is_fitted(self, "gp_")
         state = self.gp_.to_dict()
         Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
         out = np.empty(len(y))
-        for train, test in folds(len(y), n_folds, seed):
+        for train, test in period_folds(len(y), n_folds):
             out[test] = batched(self._with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
         return out
 

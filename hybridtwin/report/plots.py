@@ -261,3 +261,36 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
     )
     axis.legend(fontsize=7)
     return figure
+
+
+TRUST_COLORS = {"validated": "#2a9d3f", "calibrated": "#e08a1e", "extrapolation": "#c8302c"}
+
+
+def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit: str):
+    """The answer along one input: the recommended prediction with its interval (where one was calibrated), the
+    paper's gated hybrid and the surrogate as lines, the DoE's range shaded, the in-support stretch marked and
+    each value's trust verdict as the marker's colour."""
+    from hybridtwin.models.registry import HYBRID_GATED, RECOMMENDED_COLUMN, SURROGATE
+
+    x = answers[name].to_numpy(float)
+    figure, axis = plt.subplots(figsize=(8.5, 4.2))
+    axis.axvspan(*doe_range, color="0.85", alpha=0.6, lw=0, label="DoE range (simulations)")
+    lower, upper = answers["pred_lower"].to_numpy(float), answers["pred_upper"].to_numpy(float)
+    level = float(answers["interval_level"].iloc[0])
+    axis.fill_between(x, lower, upper, where=np.isfinite(lower), color="C0", alpha=0.2, label=f"{level:.0%} interval")
+    axis.plot(x, answers[SURROGATE.column], color="0.4", lw=1, ls=":", label="surrogate (simulations)")
+    axis.plot(x, answers[HYBRID_GATED.column], color="C1", lw=1, ls="--", label="paper's gated hybrid")
+    recommended = answers[RECOMMENDED_COLUMN].to_numpy(float)
+    axis.plot(x, recommended, color="C0", lw=1.5, label="recommended model")
+    for verdict, color in TRUST_COLORS.items():
+        rows = (answers["trust"] == verdict).to_numpy()
+        if rows.any():
+            axis.scatter(x[rows], recommended[rows], s=12, color=color, zorder=3, label=verdict)
+    inside = answers["in_support"].to_numpy(bool)
+    if inside.any():
+        axis.scatter(x[inside], np.full(inside.sum(), 0.02), s=8, marker="s", color="k",
+                     transform=axis.get_xaxis_transform(), label="in the support")  # fmt: skip
+    axis.set(xlabel=name, ylabel=f"{target} [{unit}]", title=f"{target} along {name}, the other inputs held")
+    axis.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    figure.tight_layout()
+    return figure

@@ -114,7 +114,8 @@ def final_outputs():
         "discrepancy_causes",
         "model_extension",
     ]
-    figures_of_causes = [f"cause_{rank}" for rank in range(1, config["diagnosis"]["n_figures"] + 1)]
+    ranks = range(1, config["diagnosis"]["n_figures"] + 1)
+    figures_of_causes = [f"{kind}_{rank}" for kind in ("cause", "sweep") for rank in ranks]
     figures = ["figure2_residual_check", "figure3_error_distributions", "support_distances", "surrogate_parity"]
     return (
         [f"{TABLES}/{name}.csv" for name in tables]

@@ -13,6 +13,7 @@ rule prediction_intervals:
         matched_models=rules.model_extension.output.matched_predictions,
         matched_cases=rules.matched_check.output.cases,
         surrogate=rules.surrogate_fit.output.model,
+        extension=rules.model_extension.output.extension,
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
@@ -34,6 +35,7 @@ rule prediction_intervals:
         spec=spec("target", "seed"),
         peers=PEERS,
         unit=UNIT,
+        input_units=config["units"]["inputs"],
         csv=config["csv"],
         matched_measured=config["columns"]["matched_measured"],
         settings=config["intervals"],
@@ -41,19 +43,47 @@ rule prediction_intervals:
         "../../scripts/prediction_intervals.py"
 
 
+# every file the frozen predictor reads
+PREDICTOR_FILES = [
+    rules.surrogate_fit.output.model,
+    rules.support_gate.output.model,
+    model_file("residual_filtered"),
+    model_file("residual_unfiltered"),
+    rules.model_extension.output.extension,
+    rules.model_extension.output.remainder,
+    [model_file(name) for name in PEERS],
+]
+
+
+rule cause_sweeps:
+    input:
+        manifest=rules.prediction_intervals.output.manifest,
+        models=PREDICTOR_FILES,
+        summary=rules.diagnose.output.summary,
+        production=CHECKED["production"],
+    output:
+        figures=report(
+            expand(f"{FIGURES}/sweep_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
+            caption="../report/cause_sweep.rst",
+            category="6. Diagnosis",
+        ),
+    log:
+        log_of("cause_sweeps"),
+    benchmark:
+        benchmark_of("cause_sweeps")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+    script:
+        "../../scripts/cause_sweeps.py"
+
+
 rule whatif:
     input:
         whatif=config.get("whatif") or [],
         manifest=rules.prediction_intervals.output.manifest,
-        models=[
-            rules.surrogate_fit.output.model,
-            rules.support_gate.output.model,
-            model_file("residual_filtered"),
-            model_file("residual_unfiltered"),
-            rules.model_extension.output.extension,
-            rules.model_extension.output.remainder,
-            [model_file(name) for name in PEERS],
-        ],
+        models=PREDICTOR_FILES,
     output:
         predictions=f"{RESULTS}/predictions/whatif.csv",
     log:

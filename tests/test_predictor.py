@@ -1,0 +1,166 @@
+"""The frozen predictor and the hybridtwin command, fast: questions to a tiny stored run (tests/data/models,
+made by tests/data/make_models.py; its extension names the stroke counter, a column the inputs do not hold)."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hybridtwin.answers import answer, trust
+from hybridtwin.answers.predictor import Predictor
+from hybridtwin.cli import main
+from hybridtwin.io.errors import InputError
+from hybridtwin.models import registry
+
+from .conftest import says
+
+DATA = Path(__file__).resolve().parent / "data"
+MODELS = str(DATA / "models")
+
+
+@pytest.fixture(scope="module")
+def predictor():
+    return Predictor.load(MODELS)
+
+
+@pytest.fixture(scope="module")
+def parts():
+    return pd.read_csv(DATA / "production_head.csv")
+
+
+def _far(predictor, name: str) -> pd.DataFrame:
+    """Typical production but ``name`` at the DoE's maximum plus twice its range."""
+    low, high = predictor.doe_range[name]
+    return pd.DataFrame([{**predictor.typical, name: high + 2 * (high - low)}])
+
+
+def test_the_default_answer_has_at_most_12_columns_and_all_models_every_model(predictor, parts):
+    short = predictor.predict(parts)
+    added = [column for column in short.columns if column not in parts.columns]
+    assert added == list(answer.DEFAULT) and len(added) <= 12
+    every = predictor.predict(parts, all_models=True)
+    assert {model.column for model in registry.MODELS} <= set(every.columns)
+    assert {f"beyond_{name}" for name in predictor.inputs} <= set(every.columns)
+    # computing only what the recommendation needs changes no answer
+    same = ["pred_recommended", "pred_lower", "pred_upper", "recommended_model", "trust"]
+    pd.testing.assert_frame_equal(short[same], every[same])
+
+
+def test_peers_are_computed_only_where_they_are_recommended(predictor, parts):
+    short = predictor.predict(parts)
+    every = predictor.predict(parts, all_models=True)
+    for name in registry.PEER_NAMES:
+        needed = predictor.needed(predictor.where(predictor.checked(parts)), parts.columns).get(name)
+        values = predictor.values(parts, predictor.checked(parts), predictor.where(predictor.checked(parts)), False, 1)
+        rows = np.zeros(len(parts), bool) if needed is None else needed
+        assert np.isnan(values[name][~rows]).all()
+        np.testing.assert_allclose(values[name][rows], every[f"pred_{name}"].to_numpy()[rows])
+    assert short["recommended_model"].isin(registry.RECOMMENDABLE).all()
+
+
+@pytest.mark.parametrize("name", ["thickness_mm", "die_temp_c", "rm_mpa"])
+def test_a_far_setting_is_an_extrapolation_with_no_interval(predictor, name):
+    answered = predictor.predict(_far(predictor, name)).iloc[0]
+    assert answered["trust"] == trust.EXTRAPOLATION
+    assert np.isnan(answered["pred_lower"]) and np.isnan(answered["pred_upper"])
+    low, high = predictor.doe_range[name]
+    says(
+        answered["trust_reason"],
+        name,
+        f"above the DoE's maximum {high:.3g}",
+        "2 times the DoE's range beyond it",
+        "no interval",
+    )
+
+
+def test_a_typical_setting_is_validated_with_its_interval(predictor):
+    answered = predictor.predict(pd.DataFrame([predictor.typical])).iloc[0]
+    assert answered["trust"] == trust.VALIDATED and answered["in_support"]
+    assert answered["pred_lower"] < answered["pred_recommended"] < answered["pred_upper"]
+    says(answered["trust_reason"], "validated", "within the support's")
+
+
+def test_without_the_causes_column_the_extension_is_passed_by(predictor, parts):
+    lacking = parts.drop(columns=["stroke_counter"])
+    every = predictor.predict(lacking, all_models=True)
+    inside = every["in_support"].to_numpy(bool)
+    assert np.isnan(every["pred_extended"]).all() and np.isnan(every["pred_extended_hybrid"][inside]).all()
+    assert not every["recommended_model"][inside].isin(["extended", "extended_hybrid"]).any()
+
+
+@pytest.mark.parametrize(
+    "cell, words",
+    [("abc", ["column 'rm_mpa'", "row 3", "'abc' is not a number"]), (np.nan, ["column 'rm_mpa'", "row 3", "missing"])],
+)
+def test_the_api_checks_a_table_as_the_command_does(predictor, parts, cell, words):
+    broken = parts.head(5).astype({"rm_mpa": object})
+    broken.loc[2, "rm_mpa"] = cell
+    with pytest.raises(InputError) as caught:
+        predictor.predict(broken)
+    says(str(caught.value), *words)
+    with pytest.raises(InputError) as caught:
+        predictor.predict(parts.rename(columns={"rm_mpa": "Rm_MPa"}))
+    says(str(caught.value), "'rm_mpa'", "the file has 'Rm_MPa'")
+
+
+def test_set_alone_fills_typical_production_and_says_which(capsys, tmp_path):
+    out = tmp_path / "one.csv"
+    assert main(["predict", "--models", MODELS, "--set", "die_temp_c=30", "-o", str(out)]) == 0
+    row = pd.read_csv(out).iloc[0]
+    assert row["die_temp_c"] == 30.0
+    assert "die_temp_c" not in row["filled_inputs"] and "rm_mpa" in row["filled_inputs"]
+    says(row["filled_inputs"], "from typical production")
+    assert main(["predict", "--models", MODELS, "--set", "die_temp_c=30,5"]) == 0  # a decimal comma typed
+    says(capsys.readouterr().out, "prediction:", "interval:", "trust:", "die_temp_c=30.5")
+
+
+def test_base_takes_the_other_inputs_from_a_row_of_the_users_own(tmp_path, parts):
+    out = tmp_path / "based.csv"
+    assert main(["predict", "--models", MODELS, "--base", str(DATA / "production_head.csv"), "--base-row", "3",
+                 "--set", "shim20_mm=0.5", "-o", str(out)]) == 0  # fmt: skip
+    row = pd.read_csv(out).iloc[0]
+    assert row["shim20_mm"] == 0.5 and row["rm_mpa"] == pytest.approx(parts["rm_mpa"].iloc[2])
+    says(row["filled_inputs"], "production_head.csv row 3")
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--set", "thickness=0.7"], ["'thickness' is not an input", "did you mean 'thickness_mm'"]),
+        (["--set", "rm_mpa=1.234,5"], ["'1.234,5' is not a number"]),
+        ([], ["nothing asked", "--set NAME=VALUE"]),
+        (["--base", "nowhere.csv"], ["nowhere.csv", "does not exist"]),
+    ],
+    ids=["typo", "digit-grouping", "nothing", "base-missing"],
+)
+def test_the_commands_mistakes_get_one_line(capsys, argv, words):
+    assert main(["predict", "--models", MODELS, *argv]) == 1
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("error: ") and "\n" not in error
+    says(error, *words)
+
+
+def test_help_names_the_separators(capsys):
+    with pytest.raises(SystemExit):
+        main(["predict", "--help"])
+    says(capsys.readouterr().out, "--sep {comma,semicolon,tab,pipe}", "--decimal {point,comma}")
+
+
+def test_a_predict_users_separator_hint_names_the_flag(tmp_path, parts):
+    path = tmp_path / "semicolons.csv"
+    parts.head(3).to_csv(path, sep=";", index=False)
+    with pytest.raises(InputError) as caught:
+        Predictor.load(MODELS).read(path, Predictor.load(MODELS).csv.__class__(fix="flag"))
+    says(str(caught.value), "semicolon-separated", "--sep semicolon")
+
+
+def test_a_sweep_writes_a_row_per_value_and_its_figure(tmp_path):
+    out, figure = tmp_path / "sweep.csv", tmp_path / "sweep.png"
+    argv = ["sweep", "--models", MODELS, "--vary", "die_temp_c=10:90:9", "-o", str(out), "--plot", str(figure)]
+    assert main(argv) == 0
+    swept = pd.read_csv(out)
+    np.testing.assert_allclose(swept["die_temp_c"], np.linspace(10, 90, 9))
+    assert "die_temp_c" not in swept["filled_inputs"].iloc[0]
+    assert swept["trust"].iloc[-1] == trust.EXTRAPOLATION and np.isnan(swept["pred_upper"].iloc[-1])
+    assert figure.stat().st_size > 10_000
