@@ -3,9 +3,9 @@ manifest."""
 
 from hybridtwin import pipeline
 from hybridtwin.answers import coverage, predictor
-from hybridtwin.io import files
 from hybridtwin.diagnosis.causes import unit_of
 from hybridtwin.diagnosis.extension import Models
+from hybridtwin.io import files
 from hybridtwin.io.files import in_support, read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
 from hybridtwin.models import peers
