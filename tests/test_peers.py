@@ -243,3 +243,18 @@ def test_the_peers_threads_default_to_the_cores_this_process_may_use():
         "from hybridtwin.models import batches; print(batches.available_cores())"
     )
     assert subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout == "1\n"
+
+
+def test_a_model_missing_on_far_regions_does_not_empty_the_comparisons_out_of_support_side():
+    # the stack has no weights in the far bins of a small plant: the other models are still scored on every test
+    # part out of the support, and the stack on its own ones there (the defect: 0 out-of-support rows)
+    inside = np.r_[np.ones(10, bool), np.zeros(10, bool)]
+    test = np.ones(20, bool)
+    valued = {"hybrid": np.ones(20, bool), "gp_discrepancy": np.arange(20) % 5 != 0, "stack": np.arange(20) < 13}
+    rows = peers.shared_rows(valued, inside, test)
+    outside_rows = {m: np.flatnonzero(r & ~inside).tolist() for m, r in rows.items()}
+    # out of support the stack covers 3 of 10 parts: the others share the 8 where the GP has a value
+    assert outside_rows["hybrid"] == outside_rows["gp_discrepancy"] == [11, 12, 13, 14, 16, 17, 18, 19]
+    assert outside_rows["stack"] == [11, 12]
+    # in support every model covers at least half: the rows all three share
+    assert np.flatnonzero(rows["hybrid"] & inside).tolist() == [1, 2, 3, 4, 6, 7, 8, 9]

@@ -83,7 +83,10 @@ def test_every_contracted_output_exists(run_dir):
         assert (results / "tables" / f"{name}.csv").stat().st_size > 0, name
     comparison = pd.read_csv(results / "tables/peer_comparison.csv")
     assert {"gp_discrepancy", "cokriging", "stack", "recommended", "hybrid"} <= set(comparison["model"])
-    assert comparison["rmse_truth_out_of_support"].notna().all()
+    # every model is scored out of the support (the stack only where a region had parts enough to blend on)
+    scored = comparison.set_index("model")
+    assert scored.drop(index="stack")["rmse_truth_out_of_support"].notna().all()
+    assert (scored.drop(index="stack")["n_out_of_support"] > 0).all()
     for name in ("figure2_residual_check", "figure3_error_distributions", "cause_1"):
         assert (results / "figures" / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert list((results / "synthetic").glob("*.csv"))
@@ -382,7 +385,7 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
 
     predictor = Predictor.load(run_dir / "results/models")
     production = pd.read_csv(run_dir / "results/demo/production.csv")
-    answers = predictor.predict(production)
+    answers = predictor.predict(production, all_models=True)
     written = pd.read_csv(run_dir / "results/predictions/production.csv", dtype=str)
     pd.testing.assert_frame_equal(
         _as_written(answers, SHARED_WITH_PRODUCTION, tmp_path / "answers.csv"), written[list(SHARED_WITH_PRODUCTION)]
@@ -391,7 +394,7 @@ def test_predictor_api_reproduces_the_production_predictions(run_dir, tmp_path):
     assert list(answers.columns[: production.shape[1]]) == list(production.columns)
     pd.testing.assert_frame_equal(answers[production.columns], production)
     # columns in another order give the same answers: they are taken by name
-    shuffled = predictor.predict(production[production.columns[::-1]])
+    shuffled = predictor.predict(production[production.columns[::-1]], all_models=True)
     pd.testing.assert_frame_equal(shuffled[answers.columns], answers)
 
 
@@ -412,17 +415,14 @@ def test_the_predictor_follows_the_guard_out_of_the_support(run_dir):
     # the test run's extension is close to the hybrid: shifted by 5 mm, ignoring the choice would show
     shifted = copy.deepcopy(predictor.extension)
     shifted.extension.offset_ += 5.0
-    stands = replace(predictor, extension=replace(shifted, out_of_support=True)).predictions(
-        production, with_peers=False
-    )
-    falls = replace(predictor, extension=replace(shifted, out_of_support=False)).predictions(
-        production, with_peers=False
-    )
-    assert np.abs(stands["extended_hybrid"] - stands["hybrid"])[~inside].min() > 1.0
-    np.testing.assert_allclose(falls["extended_hybrid"][~inside], falls["hybrid"][~inside])
-    np.testing.assert_allclose(falls["extended_hybrid"][inside], stands["extended_hybrid"][inside])
+    stands = replace(predictor, extension=replace(shifted, out_of_support=True)).predict(production, all_models=True)
+    falls = replace(predictor, extension=replace(shifted, out_of_support=False)).predict(production, all_models=True)
+    extended_hybrid, hybrid = "pred_extended_hybrid", "pred_hybrid"
+    assert np.abs(stands[extended_hybrid] - stands[hybrid])[~inside].min() > 1.0
+    np.testing.assert_allclose(falls[extended_hybrid][~inside], falls[hybrid][~inside])
+    np.testing.assert_allclose(falls[extended_hybrid][inside], stands[extended_hybrid][inside])
     remainder = predictor.extension.remainder.predict(production[predictor.inputs].astype(float))
-    np.testing.assert_allclose(stands["extended_hybrid"], stands["extended"] + remainder)
+    np.testing.assert_allclose(stands[extended_hybrid], stands["pred_extended"] + remainder)
 
 
 def test_every_model_file_names_its_inputs(run_dir):
@@ -450,13 +450,14 @@ def test_a_setting_beyond_the_doe_range_is_out_of_the_domain_even_inside_the_gat
     doe = pd.read_csv(run_dir / "results/data/doe.csv")
     row = doe[predictor.inputs].median().to_frame().T
     hotter = row.assign(die_temp_c=doe["die_temp_c"].max() + 0.5)
-    answers = predictor.predict(pd.concat([row, hotter], ignore_index=True))
+    answers = predictor.predict(pd.concat([row, hotter], ignore_index=True), all_models=True)
     assert answers["in_domain"].tolist() == [True, False]
     assert answers.loc[1, "in_support"]  # the gate alone lets it pass
-    assert answers.loc[1, "region"] != "in_support"
+    assert answers.loc[1, "interval_region"] != "in_support" and answers.loc[1, "model_region"] == "in_support"
     assert answers.loc[1, "outside_doe_range"].startswith("die_temp_c 0.5 above the DoE's max")
-    assert (answers["pred_lower"] < answers["pred_recommended"]).all()
-    assert (answers["pred_recommended"] < answers["pred_upper"]).all()
+    assert answers.loc[0, "trust"] == "validated" and answers.loc[1, "trust"] != "validated"
+    says(answers.loc[1, "trust_reason"], "die_temp_c", "0.5 °C above the DoE's maximum")
+    assert answers.loc[0, "pred_lower"] < answers.loc[0, "pred_recommended"] < answers.loc[0, "pred_upper"]
 
 
 def _cli(*args, cwd):
@@ -492,7 +493,7 @@ def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
     one = {name: settings.loc[0, name] for name in yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]}
     result = _cli("--models", run_dir / "results/models", *[f"--set={k}={v}" for k, v in one.items()], cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert f"{expected.loc[0, 'pred_recommended']:.6g}"[:6] in result.stdout
+    says(result.stdout, "prediction:", f"{expected.loc[0, 'pred_recommended']:.2f}", "trust:")
 
 
 @pytest.mark.parametrize(
@@ -500,7 +501,10 @@ def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
     [
         ("missing", ["what-if file", "no column 'rp02_mpa'", "columns.inputs"]),
         ("text", ["what-if file", "column 'die_temp_c'", "row 3 (line 4)", "'warm'", "not a number"]),
-        ("decimal_comma", ["what-if file", "column 'thickness_mm'", "row 1 (line 2)", "decimal comma", "csv.decimal"]),
+        (
+            "decimal_comma",
+            ["what-if file", "column 'thickness_mm'", "row 1 (line 2)", "decimal comma", "--decimal comma"],
+        ),
     ],
 )
 def test_cli_bad_input_gets_the_workflows_messages(run_dir, tmp_path, fault, expected):
@@ -562,30 +566,24 @@ def test_appending_production_reruns_neither_the_surrogate_nor_the_doe_check(run
     assert "output: results/data/doe.csv" not in dry and "output: results/data/production.csv" in dry
 
 
-def test_without_the_peers_the_next_model_in_each_ranking_is_recommended(run_dir, tmp_path):
+def test_the_peers_files_are_read_only_for_the_rows_that_need_them(run_dir, tmp_path):
     from hybridtwin import Predictor
 
-    predictor = Predictor.load(run_dir / "results/models")
     settings = pd.read_csv(run_dir / "results/demo/production.csv").iloc[:200]
-    fast = predictor.predict(settings, with_peers=False)
-    assert fast["pred_gp_discrepancy"].isna().all() and fast["pred_stack"].isna().all()
-    assert not fast["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"]).any()
-    assert fast["pred_recommended"].notna().all() and fast["pred_lower"].notna().all()
-    full = predictor.predict(settings)
-    same = ~full["recommended_model"].isin(["gp_discrepancy", "cokriging", "stack"])
-    assert (fast.loc[same, "pred_recommended"] == full.loc[same, "pred_recommended"]).all()
-    # loaded without the peers (the CLI's --without-peers): their files are not even read; the same answers
+    full = Predictor.load(run_dir / "results/models").predict(settings)
     models = tmp_path / "models"
     shutil.copytree(run_dir / "results/models", models)
     for peer in models.glob("peer_*.json"):
         peer.write_text("not JSON")
-    light = Predictor.load(models, with_peers=False)
-    assert not light.peers
-    pd.testing.assert_frame_equal(light.predict(settings, with_peers=False), fast)
-    with pytest.raises(ValueError, match="without its peers"):
-        light.predict(settings)
+    peers = ["gp_discrepancy", "cokriging", "stack"]
+    without = settings[~full["recommended_model"].isin(peers).to_numpy()]
+    light = Predictor.load(models)  # the broken files are not read until a row needs them
+    pd.testing.assert_frame_equal(
+        light.predict(without).reset_index(drop=True),
+        full[~full["recommended_model"].isin(peers)].reset_index(drop=True),
+    )
     new, out = tmp_path / "new.csv", tmp_path / "out.csv"
-    settings.to_csv(new, index=False)
+    without.to_csv(new, index=False)
     command = ["hybridtwin", "predict", str(new), "--models", str(models), "-o", str(out)]
-    assert subprocess.run([*command, "--without-peers"], capture_output=True).returncode == 0
-    assert subprocess.run(command, capture_output=True).returncode == 1  # the broken peer files are read
+    assert subprocess.run(command, capture_output=True).returncode == 0
+    assert subprocess.run([*command, "--all-models"], capture_output=True).returncode != 0  # now they are read

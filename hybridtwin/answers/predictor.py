@@ -132,8 +132,15 @@ class Predictor:
         )
 
     def peer(self, name: str):
+        """A peer, read on first use (a table whose recommendations need no peer never reads their files)."""
         if name not in self._peers:
-            self._peers[name] = peers.load_peer(name, files.read_json(self.folder / self.spec["files"][name]))
+            path = self.folder / self.spec["files"][name]
+            try:
+                self._peers[name] = peers.load_peer(name, files.read_json(path))
+            except (OSError, ValueError, KeyError) as error:
+                raise InputError(
+                    f"{str(path)!r}: {type(error).__name__}: {error}. Rerun the workflow that wrote these models"
+                ) from None
         return self._peers[name]
 
     def checked(self, frame: pd.DataFrame, where: str = "the what-if table") -> pd.DataFrame:

@@ -299,39 +299,40 @@ def gain_table(
     truth=None,
     noise: float | None = None,
     test=None,
+    scored: dict[str, np.ndarray] | None = None,
 ) -> pd.DataFrame:
     """model_extension.csv: RMSE in support (out-of-fold), out of support and on matched cases per model.
 
     ``predictions`` hold, per model, out-of-fold values on in-support rows and
     final-model values elsewhere, so no row is scored by a model trained on it.
-    ``test``: the rows scored out of the support (None: all; else those the guard did not choose on).
+    ``test``: the rows scored out of the support (None: all; else those the guard did not choose on);
+    ``scored``: per model, the rows it is scored on (default: every row), counted in its ``n_*`` columns.
     """
-
     inside = np.asarray(in_support, bool)
     measured = np.asarray(measured, float)
     outside = ~inside if test is None else ~inside & np.asarray(test, bool)
+    truth = None if truth is None else np.asarray(truth, float)
     rows = []
     for model, pred in predictions.items():
+        mask = np.ones(len(measured), bool) if scored is None else np.asarray(scored[model], bool)
+        here, there = inside & mask, outside & mask
         row = {
             "model": model,
-            "rmse_in_support_cv": rmse(measured[inside], pred[inside]),
-            "rmse_out_of_support": rmse(measured[outside], pred[outside]),
+            "rmse_in_support_cv": rmse(measured[here], pred[here]),
+            "rmse_out_of_support": rmse(measured[there], pred[there]),
             "rmse_matched": rmse(matched_measured, matched_predictions[model]),
         }
         if truth is not None:
-            truth = np.asarray(truth, float)
-            row["rmse_truth_in_support_cv"] = rmse(truth[inside], pred[inside])
-            row["rmse_truth_out_of_support"] = rmse(truth[outside], pred[outside])
+            row["rmse_truth_in_support_cv"] = rmse(truth[here], pred[here])
+            row["rmse_truth_out_of_support"] = rmse(truth[there], pred[there])
             row["out_of_support_over_noise"] = row["rmse_out_of_support"] / noise if noise else float("nan")
+        row.update(n_in_support=int(here.sum()), n_out_of_support=int(there.sum()), n_matched=len(matched_measured))
         rows.append(row)
     table = pd.DataFrame(rows)
-    table["n_in_support"] = int(inside.sum())
-    table["n_out_of_support"] = int(outside.sum())
-    table["n_matched"] = len(matched_measured)
     table["evaluated_on"] = (
-        "measured production values: in support out-of-fold (K-fold CV; the causes and forms "
-        "were chosen on all in-support rows, only their parameters refitted per fold), out of "
-        "support with models fitted on the in-support rows (never on these rows)"
+        "measured production values: in support out of period (K folds of consecutive parts, the hybrid's own; "
+        "the causes and forms were chosen on all in-support rows, only their parameters refitted per fold), out "
+        "of support with models fitted on the in-support rows (never on these rows)"
         + (
             ""
             if test is None

@@ -116,6 +116,22 @@ def load_peer(name: str, data: dict):
     return estimator_class(name).from_dict(data)
 
 
+def shared_rows(valued: dict[str, np.ndarray], inside: np.ndarray, test: np.ndarray) -> dict[str, np.ndarray]:
+    """Per model, the test rows it is scored on: in support and out of it, the rows where every model that has a
+    value on at least half of that side's test rows has one (each part's noise then weighs on them alike); a
+    model with fewer (the stack where a far region had too few parts to blend on) on its own rows among those."""
+    rows = {model: np.zeros(len(inside), bool) for model in valued}
+    for side in (inside, ~inside):
+        side_rows = np.asarray(test, bool) & side
+        if not side_rows.any():
+            continue
+        broad = [m for m, finite in valued.items() if finite[side_rows].mean() >= 0.5]
+        common = side_rows & np.all([valued[m] for m in broad], axis=0) if broad else side_rows
+        for model, finite in valued.items():
+            rows[model] |= common & finite
+    return rows
+
+
 def comparison_table(
     measured,
     predictions: dict[str, np.ndarray],
@@ -130,32 +146,33 @@ def comparison_table(
     """peer_comparison.csv: every model on the same held-out production rows, in and out of the support.
 
     ``predictions`` are honest (out-of-fold on a model's training parts, a peer's included, or from models never
-    trained on the row); the rows scored are the test blocks where every model has a value, so all models share
-    them.
+    trained on the row); the rows scored are the test blocks' rows every model shares (:func:`shared_rows`).
     ``fits``: per peer, its n_train (the in-support parts it trained on).
     """
     from hybridtwin.diagnosis.extension import gain_table
 
     names = [m for m in registry.COMPARED if m in predictions]
-    rows = np.flatnonzero(test & np.all([np.isfinite(predictions[m]) for m in names], axis=0))
-    truth_rows = None if truth is None else np.asarray(truth, float)[rows]
     matched = {m: np.asarray(matched_predictions.get(m, np.full(len(matched_measured), np.nan)), float) for m in names}
     table = gain_table(
-        np.asarray(measured, float)[rows],
-        {m: predictions[m][rows] for m in names},
-        np.asarray(in_support, bool)[rows],
+        measured,
+        {m: np.asarray(predictions[m], float) for m in names},
+        in_support,
         matched_measured,
         matched,
-        truth_rows,
+        truth,
         noise,
+        test,
+        shared_rows({m: np.isfinite(predictions[m]) for m in names}, np.asarray(in_support, bool), test),
     )
     # (fit times vary from run to run, so they stay out of the table: results/peers/<peer>.json and the benchmarks)
     table["n_train"] = table["model"].map({k: v["n_train"] for k, v in fits.items()})
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows; the recommended model and the stack's weights were "
-        "chosen on the even blocks), the same rows for every model: in support out-of-fold for the hybrid and the "
-        "extension, and for a peer on the parts it trained on; out of support from models never trained there; matched "
-        "cases never used for fitting (the stack and the recommended model are not scored on them)"
+        "chosen on the even blocks), the same rows for every model (a model with values on fewer than half of a "
+        "side's rows, on its own among them: n_in_support, n_out_of_support): in support out of period for the "
+        "hybrid and the extension, and for a peer on the parts it trained on; out of support from models never "
+        "trained there; matched cases never used for fitting (the stack and the recommended model are not scored "
+        "on them)"
         + ("; truth = the demo's noise-free plant" if truth is not None else "")
     )
     return table
