@@ -22,6 +22,7 @@ from scipy.spatial.distance import cdist
 from sklearn.cluster import KMeans
 
 from hybridtwin.crossval import training_subset
+from hybridtwin.diagnosis.causes import parse_timestamps
 from hybridtwin.io.config import section_defaults
 from hybridtwin.paper.gate import KNNSupportGate
 
@@ -179,8 +180,8 @@ def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
             continue
         values = production[column].iloc[rows]
         if values.dtype.kind in "OUT" or str(values.dtype) in ("string", "str"):
-            as_time = pd.to_datetime(values, errors="coerce", format="mixed")
-            if as_time.notna().all():
+            as_time = parse_timestamps(values)  # ISO, else day-first (04.03.2026 is the 4th of March)
+            if as_time is not None and as_time.notna().all():
                 parts.append(f"{column} {as_time.min():%Y-%m-%d %H:%M} to {as_time.max():%Y-%m-%d %H:%M}")
                 continue
             counts = values.value_counts()

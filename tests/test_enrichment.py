@@ -251,3 +251,9 @@ def test_parts_brought_in_decide_and_the_surrogates_doubt_breaks_a_tie():
     np.testing.assert_allclose(chosen.points[0], [1.4, 0.5], atol=0.05)
     assert chosen.brought_in[0].tolist() == list(range(100))
     assert enrichment.propose(doe, production, 5, 95, enrichment.EnrichmentSettings(n_points=0)).points.shape == (0, 2)
+
+
+def test_a_day_first_timestamp_is_read_as_day_first():
+    # German Excel writes 04.03.2026 for the 4th of March: read as the 3rd of April, the span was a month off
+    production = pd.DataFrame({"a": [0.0, 1.0], "zeit": ["04.03.2026 06:00:00", "05.03.2026 14:30:00"]})
+    says(enrichment._served(production, np.array([0, 1]), ["a"]), "zeit 2026-03-04 06:00 to 2026-03-05 14:30")
