@@ -587,3 +587,34 @@ def test_the_peers_files_are_read_only_for_the_rows_that_need_them(run_dir, tmp_
     command = ["hybridtwin", "predict", str(new), "--models", str(models), "-o", str(out)]
     assert subprocess.run(command, capture_output=True).returncode == 0
     assert subprocess.run([*command, "--all-models"], capture_output=True).returncode != 0  # now they are read
+
+
+def test_the_harness_runs_the_workflows_own_steps_to_the_same_numbers(run_dir):
+    """One pipeline: the scenario harness calls the steps the rule scripts call, and gets the same numbers on the
+    same plant as the workflow did from its files."""
+    from hybridtwin import diagnosis
+    from hybridtwin.demo.harness import Run
+
+    results = run_dir / "results"
+    config = yaml.safe_load(open(TEST_CONFIG))
+    params = files.read_json(results / "tuning/best_params.json")["params"]
+    doe, production = (files.read_checked(results / f"data/{role}.csv") for role in ("doe", "production"))
+    run = Run.of_workflow(config, doe, production, params)
+
+    def same(ours: pd.DataFrame, path: Path):
+        theirs = pd.read_csv(path)
+        for column in ours.columns:
+            np.testing.assert_allclose(ours[column].to_numpy(float), theirs[column].to_numpy(float), rtol=1e-6)
+
+    same(run.support.table, results / "support/production_support.csv")
+    same(run.residuals, results / "residuals/production_residuals.csv")
+    same(run.residual_cv.oof, results / "residuals/oof_filtered.csv")
+    settings = diagnosis.Settings.from_config(
+        {k: v for k, v in run.config["diagnosis"].items() if k != "n_figures"}, 3, 7, "mm", 2
+    )
+    causes = run.diagnose(settings)
+    written = pd.read_csv(results / "tables/discrepancy_causes.csv")
+    assert causes.table["cause"].tolist() == written["cause"].tolist()
+    np.testing.assert_allclose(causes.table["explained_share"], written["explained_share"], rtol=1e-6)
+    extension = run.extension(causes.terms).production
+    same(extension, results / "predictions/extension.csv")

@@ -56,6 +56,11 @@ class Run:
         config = default_config(case.inputs, case.target, seed, surrogate={"n_restarts": n_restarts}, **sections)
         return cls(case.doe, case.production, config, dict(params or SCENARIO_XGB), n_jobs)
 
+    @classmethod
+    def of_workflow(cls, config: dict, doe: pd.DataFrame, production: pd.DataFrame, params: dict, n_jobs: int = 2):
+        """The steps with a workflow run's own config and tuned ``params``, on its checked data."""
+        return cls(doe, production, configuration.check(dict(config)), dict(params), n_jobs)
+
     @cached_property
     def spec(self) -> pipeline.Spec:
         return pipeline.Spec.from_config(self.config, self.n_jobs)

@@ -172,7 +172,6 @@ def comparison_table(
         "side's rows, on its own among them: n_in_support, n_out_of_support): in support out of period for the "
         "hybrid and the extension, and for a peer on the parts it trained on; out of support from models never "
         "trained there; matched cases never used for fitting (the stack and the recommended model are not scored "
-        "on them)"
-        + ("; truth = the demo's noise-free plant" if truth is not None else "")
+        "on them)" + ("; truth = the demo's noise-free plant" if truth is not None else "")
     )
     return table
