@@ -261,6 +261,14 @@ def comparison(
     )
 
 
+def production_reach(production: pd.DataFrame, gate, spec: Spec, n_blocks: int):
+    """The log's parts, DoE-standardized, and how novel a new period may be (:mod:`answers.novelty`)."""
+    from hybridtwin.answers.novelty import ProductionNeighbourhood
+
+    Z = gate.standardizer_.transform(production[list(spec.inputs)])
+    return ProductionNeighbourhood(n_blocks=n_blocks, seed=spec.seed).fit(Z)
+
+
 def typical(production: pd.DataFrame, inside, columns) -> dict[str, float]:
     """Typical production: each numeric column's median over the in-support parts (what a one-off question's
     unset inputs take)."""

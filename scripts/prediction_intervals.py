@@ -9,6 +9,7 @@ from hybridtwin.io import files
 from hybridtwin.io.files import in_support, read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
 from hybridtwin.models import peers
+from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate
 from hybridtwin.report import plots
 
@@ -28,6 +29,9 @@ def main(snakemake):
     files.write_csv(result.table, snakemake.output.table)
     settings = {"inputs": spec.inputs, "target": spec.target, "unit": p.unit, "csv": p.csv, "level": level}
     typical = pipeline.typical(production, in_support(predictions), columns)
+    gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
+    reach = pipeline.production_reach(production, gate, spec, p.settings["blocks"])
+    files.write_json(reach.to_dict(), snakemake.output.reach)
     files.write_json(
         predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units), snakemake.output.manifest
     )

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.answers import answer, intervals, regions, trust
+from hybridtwin.answers.novelty import ProductionNeighbourhood
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import data, files
 from hybridtwin.io.errors import InputError
@@ -56,6 +57,7 @@ class Predictor:
     residual_unfiltered: object
     extension: Models  # the named causes' terms, the remainder model and the guard's choice
     intervals: intervals.RegionIntervals
+    neighbourhood: ProductionNeighbourhood | None = None  # the logged production (novelty of a new setting)
     _peers: dict = field(default_factory=dict)  # loaded on first use: rebuilding co-kriging takes a second
 
     @classmethod
@@ -97,6 +99,7 @@ class Predictor:
             _xgb(path["residual_unfiltered"], inputs),
             Models.from_stored(files.read_json(path["extension"]), _xgb(path["remainder"], inputs)),
             intervals.RegionIntervals.from_dict(spec["intervals"]),
+            ProductionNeighbourhood.from_dict(files.read_json(path["production_reach"])),
         )
 
     @property
@@ -129,6 +132,7 @@ class Predictor:
             {name: tuple(ranges[name]) for name in self.inputs},
             self.doe_range,
             self.spec.get("units", {}),
+            None if self.neighbourhood is None else self.neighbourhood.threshold_,
         )
 
     def peer(self, name: str):
@@ -174,7 +178,10 @@ class Predictor:
         beyond = regions.outside_range(X, self.doe_range)
         outside_range = (beyond != 0).any(axis=1).to_numpy()
         region = regions.Regions.of(inside, outside_range, distance, self.intervals.edges, self.intervals.beyond_region)
-        verdict, reason = trust.verdicts(inside, beyond, distance, self.reach)
+        novelty = (
+            None if self.neighbourhood is None else self.neighbourhood.distance(self.gate.standardizer_.transform(X))
+        )
+        verdict, reason = trust.verdicts(inside, beyond, distance, self.reach, novelty)
         return answer.Where(distance, inside, beyond, region, verdict, reason, self.doe_range)
 
     def needed(self, where: answer.Where, columns) -> dict[str, np.ndarray]:

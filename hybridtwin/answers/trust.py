@@ -5,8 +5,9 @@
 - ``calibrated``: outside the support (or beyond a DoE range inside the gate), but no further from the
   simulations than production parts whose errors calibrated the interval: the interval was checked there;
 - ``extrapolation``: further than every calibrated part, or beyond a DoE range by more than the calibrated
-  parts were. Nothing checked an interval this far: the answer has none (``pred_lower``, ``pred_upper`` empty),
-  and the reason names the input and how far it lies beyond the simulations.
+  parts were, or (outside the validated domain) unlike every logged production part as no period of the log was
+  unlike the rest (:mod:`.novelty`). Nothing checked an interval there: the answer has none (``pred_lower``,
+  ``pred_upper`` empty), and the reason names the input and how far it lies beyond the simulations.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ class Reach:
     beyond: dict[str, tuple[float, float]]
     doe_range: dict[str, tuple[float, float]]
     units: dict[str, str]
+    novelty: float | None = None  # the largest distance of a log period's parts to the rest of the log
 
     @classmethod
     def of(cls, beyond: pd.DataFrame, distance, outside, threshold, doe_range, units=None) -> "Reach":
@@ -41,8 +43,9 @@ class Reach:
         return cls(float(threshold), furthest, reach, dict(doe_range), dict(units or {}))
 
 
-def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach) -> tuple[np.ndarray, np.ndarray]:
-    """``trust`` and ``trust_reason`` per row (``beyond``: each input's signed distance beyond the DoE's range)."""
+def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=None) -> tuple[np.ndarray, np.ndarray]:
+    """``trust`` and ``trust_reason`` per row (``beyond``: each input's signed distance beyond the DoE's range;
+    ``novelty``: each row's distance to the logged production, :class:`novelty.ProductionNeighbourhood`)."""
     inside = np.asarray(in_support, bool)
     distance = np.asarray(distance, float)
     amounts = beyond[list(reach.beyond)].to_numpy(float)
@@ -52,8 +55,11 @@ def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach) -> tuple[
     # no calibration part out of the support: no interval was ever checked there
     too_far = ~inside & (True if reach.max_distance is None else distance > reach.max_distance)
     in_range = ~(amounts != 0).any(axis=1)
+    novel = np.zeros(len(distance), bool)
+    if novelty is not None and reach.novelty is not None:
+        novel = ~(inside & in_range) & (np.asarray(novelty, float) > reach.novelty)
     trust = np.where(
-        past_reach.any(axis=1) | too_far, EXTRAPOLATION, np.where(inside & in_range, VALIDATED, CALIBRATED)
+        past_reach.any(axis=1) | too_far | novel, EXTRAPOLATION, np.where(inside & in_range, VALIDATED, CALIBRATED)
     ).astype(object)
     reason = np.full(len(trust), "", dtype=object)
     rows = trust == VALIDATED
@@ -62,7 +68,19 @@ def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach) -> tuple[
     reason[rows] = _calibrated(inside[rows], amounts[rows], distance[rows], reach)
     rows = trust == EXTRAPOLATION
     reason[rows] = _extrapolated(past_reach[rows], amounts[rows], distance[rows], reach)
+    only_novel = novel & ~past_reach.any(axis=1) & ~too_far
+    if only_novel.any():
+        reason[only_novel] = _novel(np.asarray(novelty, float)[only_novel], reach)
     return trust, reason
+
+
+def _novel(novelty, reach: Reach) -> np.ndarray:
+    return (
+        "settings unlike every logged production part (distance "
+        + _numbers(novelty)
+        + f" to the nearest, where no period of the log lay further than {reach.novelty:.3g} from the rest): "
+        + "the plant was never seen here, no interval"
+    )
 
 
 def _numbers(values) -> np.ndarray:

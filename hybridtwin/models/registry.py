@@ -146,6 +146,7 @@ FILES = {
     "residual_unfiltered": RESIDUAL_FILE.format(training="unfiltered"),
     "extension": "extension.json",
     "remainder": "residual_xgb_extended.json",
+    "production_reach": "production_reach.json",
     **{model.name: model.file for model in PEERS},
 }
 

@@ -17,6 +17,7 @@ rule prediction_intervals:
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
     output:
         manifest=f"{MODELS}/predictor.json",
+        reach=model_file("production_reach"),
         comparison=f"{TABLES}/peer_comparison.csv",
         table=f"{TABLES}/prediction_intervals.csv",
         figure=report(
@@ -51,6 +52,7 @@ PREDICTOR_FILES = [
     model_file("residual_unfiltered"),
     rules.model_extension.output.extension,
     rules.model_extension.output.remainder,
+    model_file("production_reach"),
     [model_file(name) for name in PEERS],
 ]
 

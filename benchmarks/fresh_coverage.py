@@ -1,0 +1,149 @@
+"""Benchmark: do the intervals hold on the next production period, on plants of 3,000 to 70,000 parts?
+
+For each plant (the demo generator and the other plant families, drawn with committed seeds), the log is the
+first N parts and the fresh parts are the 8,000 that follow (the same plant, a later period: new coils, new
+campaigns). The real workflow runs on the log (snakemake, a config of the user's kind); ``hybridtwin``'s frozen
+predictor then answers the fresh parts, and each region's coverage of their measured values is counted with its
+95% Clopper-Pearson interval, beside the trust verdicts. Usage:
+
+    python benchmarks/fresh_coverage.py --plants 8 --seed 1          # about 2 minutes a plant, alone on 2 cores
+
+Writes benchmarks/results/fresh_coverage.csv (a row per plant and region) and fresh_coverage.md (the summary).
+Goal (issue 29): in support within nominal +-2 points, out of support at least nominal - 2 in every region.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from hybridtwin import demo
+from hybridtwin.answers.coverage import clopper_pearson
+from hybridtwin.answers.predictor import Predictor
+from hybridtwin.demo import families
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "benchmarks" / "results"
+N_FRESH = 8000
+SIZES = (3000, 8000, 20000, 70000)
+
+
+def plant(index: int, seed: int):
+    """The index-th plant: (name, DoE, log, fresh parts, inputs, target), sizes cycling through SIZES."""
+    n = SIZES[index % len(SIZES)]
+    draw = seed * 100 + index
+    if index % 3 == 0:
+        frames = demo.generate(replace(demo.DemoPlant(), seed=draw, n_production=n + N_FRESH))
+        production, doe = frames["production"], frames["doe"]
+        inputs, target, name = demo.INPUT_NAMES, demo.TARGET, f"demo seed {draw}"
+    else:
+        family = families.FAMILIES[index % len(families.FAMILIES)]
+        case = families.draw_plant(family, draw, n_production=n + N_FRESH)
+        production, doe, inputs, target = case.production, case.doe, case.inputs, case.target
+        name = f"{family} seed {draw}"
+    return name, doe, production.iloc[:n], production.iloc[n:].reset_index(drop=True), list(inputs), target
+
+
+def matched_cases(doe, log, inputs, target, rng) -> pd.DataFrame:
+    """Seven plant trials re-simulated: the log's parts nearest the DoE's centre, the simulator with its scatter."""
+    centre = (log[inputs] - doe[inputs].mean()) / doe[inputs].std()
+    rows = np.argsort((centre**2).sum(axis=1).to_numpy())[:7]
+    cases = log.iloc[rows][inputs].reset_index(drop=True)
+    cases["simulated"] = demo.simulator(cases.rename(columns=dict(zip(inputs, demo.INPUT_NAMES)))) + rng.normal(
+        0, 1.3, len(cases)
+    )
+    cases["measured"] = log.iloc[rows][target].to_numpy()
+    return cases
+
+
+def run_workflow(folder: Path, doe, log, matched, inputs, target, seed: int) -> Path:
+    for name, frame in (("doe", doe), ("production", log), ("matched", matched)):
+        frame.to_csv(folder / f"{name}.csv", index=False)
+    config = {
+        "data": {name: str(folder / f"{name}.csv") for name in ("doe", "production", "matched")},
+        "columns": {
+            "inputs": inputs,
+            "target": target,
+            "matched_simulated": "simulated",
+            "matched_measured": "measured",
+        },
+        "results_dir": str(folder / "results"),
+        "seed": seed,
+        "tuning": {"n_trials": 10},
+    }
+    (folder / "plant.yaml").write_text(yaml.safe_dump(config))
+    command = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(folder)]
+    command += ["--configfile", str(folder / "plant.yaml"), "--cores", "2", "--quiet"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return folder / "results" / "models"
+
+
+def coverage_rows(name: str, n_log: int, answers: pd.DataFrame, measured: np.ndarray, level: float) -> list[dict]:
+    rows = []
+    has = answers["pred_lower"].notna().to_numpy()
+    covered = (measured >= answers["pred_lower"].to_numpy()) & (measured <= answers["pred_upper"].to_numpy())
+    for region in sorted(set(answers.loc[has, "interval_region"])):
+        here = has & (answers["interval_region"] == region).to_numpy()
+        k, n = int(covered[here].sum()), int(here.sum())
+        low, high = clopper_pearson(k, n)
+        rows.append(
+            dict(plant=name, n_log=n_log, region=region, n_fresh=n, coverage=k / n, coverage_low=low,
+                 coverage_high=high, nominal=level, mean_width=float((answers["pred_upper"] - answers["pred_lower"])[here].mean()))
+        )  # fmt: skip
+    verdicts = answers["trust"].value_counts(normalize=True)
+    for row in rows:
+        row.update({f"share_{verdict}": float(verdicts.get(verdict, 0.0)) for verdict in ("validated", "calibrated")})
+        row["share_extrapolation"] = float(verdicts.get("extrapolation", 0.0))
+    return rows
+
+
+def summary(table: pd.DataFrame) -> str:
+    lines = [
+        "| region | plants | fresh parts | coverage (pooled) | 95% interval | worst plant | mean width |",
+        "|---|---:|---:|---:|---|---:|---:|",
+    ]
+    for region, rows in table.groupby(table["region"].where(table["region"] == "in_support", "out of support")):
+        k, n = int((rows["coverage"] * rows["n_fresh"]).round().sum()), int(rows["n_fresh"].sum())
+        low, high = clopper_pearson(k, n)
+        lines.append(
+            f"| {region} | {rows['plant'].nunique()} | {n:,} | {k / n:.1%} | {low:.1%} to {high:.1%} | "
+            f"{rows['coverage'].min():.1%} | {rows['mean_width'].mean():.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--plants", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    rows = []
+    for index in range(args.plants):
+        name, doe, log, fresh, inputs, target = plant(index, args.seed)
+        with tempfile.TemporaryDirectory() as scratch:
+            matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index))
+            models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
+            predictor = Predictor.load(models)
+            answers = predictor.predict(fresh, all_models=True)
+        found = coverage_rows(name, len(log), answers, fresh[target].to_numpy(float), predictor.level)
+        rows += found
+        print(f"{name:28s} log {len(log):>6,}: " + "; ".join(
+            f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found), flush=True)  # fmt: skip
+    table = pd.DataFrame(rows)
+    OUT.mkdir(parents=True, exist_ok=True)
+    table.to_csv(OUT / "fresh_coverage.csv", index=False)
+    text = f"# Intervals on the next production period\n\n`{' '.join(sys.argv)}`\n\n{summary(table)}\n"
+    (OUT / "fresh_coverage.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
