@@ -35,7 +35,11 @@ except ConfigError as error:
     sys.exit(str(error))
 
 
-report: "workflow/report/workflow.rst"
+# the report opens on the answer (rule report_summary) once a run has written it
+SUMMARY = f"{config['results_dir'].rstrip('/')}/report/summary.rst"
+
+
+report: str(Path(SUMMARY).absolute()) if Path(SUMMARY).exists() else "workflow/report/workflow.rst"
 
 
 include: "workflow/rules/common.smk"

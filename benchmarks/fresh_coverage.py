@@ -94,9 +94,10 @@ def coverage_rows(name: str, n_log: int, answers: pd.DataFrame, measured: np.nda
         here = has & (answers["interval_region"] == region).to_numpy()
         k, n = int(covered[here].sum()), int(here.sum())
         low, high = clopper_pearson(k, n)
+        width = float((answers["pred_upper"] - answers["pred_lower"])[here].mean())
         rows.append(
-            dict(plant=name, n_log=n_log, region=region, n_fresh=n, coverage=k / n, coverage_low=low,
-                 coverage_high=high, nominal=level, mean_width=float((answers["pred_upper"] - answers["pred_lower"])[here].mean()))
+            {"plant": name, "n_log": n_log, "region": region, "n_fresh": n, "coverage": k / n, "coverage_low": low,
+             "coverage_high": high, "nominal": level, "mean_width": width}
         )  # fmt: skip
     verdicts = answers["trust"].value_counts(normalize=True)
     for row in rows:

@@ -89,6 +89,12 @@ class ReportTab:
             time.sleep(0.2)
         raise TimeoutError(expression)
 
+    def first_page(self) -> str:
+        """The text the report shows when it opens, before any click."""
+        self.browser.send("Page.navigate", self.session, url=self.url)
+        self.wait_for("document.readyState === 'complete' && typeof results === 'object'")
+        return self.wait_for("document.body && document.body.innerText.includes('Gain') && document.body.innerText")
+
     def open_page(self, category: str, path: str) -> str:
         """Load the report, click the category and the result's eye button; the text of the frame shown."""
         self.browser.send("Page.navigate", self.session, url=self.url)
@@ -143,6 +149,19 @@ def main() -> int:
     try:
         tab = ReportTab(browser, Path(args.report))
         results_dir = Path(args.report).parent
+        opening = " ".join(tab.first_page().split())
+        answer = [
+            "Offset",
+            "Cause",
+            "Gain out of the support",
+            "Validated domain",
+            "Recommended model",
+            "Next simulations",
+        ]
+        absent = [words for words in answer if words not in opening]
+        missing_any |= bool(absent)
+        print(f"first page, no click: {len(answer) - len(absent)}/{len(answer)} parts of the answer shown"
+              + (f"; missing: {absent}" if absent else ""), flush=True)  # fmt: skip
         for page, category in report_pages(Path("workflow/rules/report.smk")).items():
             path = f"{results_dir}/report/{page}.html"
             start = time.perf_counter()

@@ -21,7 +21,7 @@ from hybridtwin.diagnosis.extension import (
 )
 from hybridtwin.metrics import block_gains
 from hybridtwin.models.compose import guarded
-from tests.conftest import says  # noqa: E402
+from tests.conftest import says
 
 RNG = np.random.default_rng(5)
 A = RNG.normal(0, 1, 3000)

@@ -37,6 +37,8 @@ th { background: #f0f0f0; text-align: left; }
 td { text-align: right; }
 td:first-child { text-align: left; }
 p.source { color: #666; font-size: 12px; }
+p.note { color: #444; font-size: 13px; max-width: 60em; }
+tbody th { text-align: left; font-weight: normal; background: #f7f7f7; }
 """
 
 
@@ -75,12 +77,49 @@ def page(title: str, body: str) -> str:
     )
 
 
+# a table wider than this many columns is transposed (few rows) or split into column groups (many rows)
+MAX_COLUMNS = 8
+MAX_TRANSPOSED_ROWS = 12
+
+
 def table_page(frame: pd.DataFrame, title: str, source: str, unit: str, verbatim=()) -> str:
-    """One table with human headers (the user's own column names kept); the CSV it shows is named under it."""
+    """One table with human headers (the user's own column names kept), fitting a laptop's screen: a note that
+    is the same on every row (what the table was computed on) said once above it, a wide table transposed or
+    split; the CSV it shows is named under it."""
+    notes, frame = _constant_notes(frame)
     shown = frame.rename(columns=lambda name: header(name, unit, verbatim))
     shown = shown.map(cell) if len(shown) else shown
-    table = shown.to_html(index=False, escape=True, border=0, na_rep="–")
-    return page(title, f'{table}\n<p class="source">Data: <code>{html.escape(source)}</code></p>')
+    tables = [part.to_html(index=index, escape=True, border=0, na_rep="–") for part, index in _fitting(shown)]
+    said = "".join(f'<p class="note">{html.escape(note)}</p>\n' for note in notes)
+    return page(title, f'{said}{"<br>".join(tables)}\n<p class="source">Data: <code>{html.escape(source)}</code></p>')
+
+
+def _constant_notes(frame: pd.DataFrame) -> tuple[list[str], pd.DataFrame]:
+    """Long text columns with one value on every row, as sentences ('Evaluated on: ...'), and the rest."""
+    constant = [
+        column
+        for column in frame.columns
+        if len(frame) > 1
+        and not pd.api.types.is_numeric_dtype(frame[column])
+        and frame[column].nunique(dropna=False) == 1
+        and len(str(frame[column].iloc[0])) > 40
+    ]
+    notes = [f"{header(column, '')}: {frame[column].iloc[0]}" for column in constant]
+    return notes, frame.drop(columns=constant)
+
+
+def _fitting(shown: pd.DataFrame) -> list[tuple[pd.DataFrame, bool]]:
+    """The table as parts a laptop's screen shows whole: itself; transposed (a row per column) when it has few
+    rows; or groups of columns, each with the first column again."""
+    if shown.shape[1] <= MAX_COLUMNS:
+        return [(shown, False)]
+    if len(shown) <= MAX_TRANSPOSED_ROWS:
+        transposed = shown.set_index(shown.columns[0]).T
+        transposed.columns = [str(c) for c in transposed.columns]
+        return [(transposed, True)]
+    first, rest = shown.columns[0], list(shown.columns[1:])
+    step = MAX_COLUMNS - 1
+    return [(shown[[first, *rest[start : start + step]]], False) for start in range(0, len(rest), step)]
 
 
 def markdown_page(markdown_text: str, title: str, source: str) -> str:

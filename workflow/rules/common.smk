@@ -130,6 +130,7 @@ def final_outputs():
             f"{MODELS}/predictor.json",
             f"{RESULTS}/enrichment/proposed_simulations.csv",
             f"{RESULTS}/report/diagnosis.html",  # with every other page of the report (rule report_pages)
+            SUMMARY,
         ]
         + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
     )

@@ -49,6 +49,30 @@ REPORT_PAGES = {
 }
 
 
+rule report_summary:
+    input:
+        datasets=rules.table1.output.table,
+        diagnosis=rules.diagnose.output.summary,
+        gain=rules.model_extension.output.table,
+        intervals=rules.prediction_intervals.output.table,
+        manifest=rules.prediction_intervals.output.manifest,
+        proposals=rules.propose_simulations.output.table,
+    output:
+        summary=SUMMARY,
+    log:
+        log_of("report_summary"),
+    benchmark:
+        benchmark_of("report_summary")
+    conda:
+        "../envs/hybridtwin.yaml"
+    params:
+        code=PACKAGE_CODE,
+        target=TARGET,
+        unit=UNIT,
+    script:
+        "../../scripts/report_summary.py"
+
+
 rule report_pages:
     input:
         **{page: source for page, (source, *_) in REPORT_PAGES.items()},
