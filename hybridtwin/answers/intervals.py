@@ -34,7 +34,7 @@ from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models import compose, registry
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
-from hybridtwin.models.stack import blend, cross_fitted_stack, stack_members, stack_weights
+from hybridtwin.models.stack import blend, cross_fitted_stack, members, stack_members, stack_weights
 
 # the models a row's prediction can come from (registry.RECOMMENDABLE); the stack blends the others
 STACK = registry.STACK.name
@@ -187,7 +187,7 @@ class RegionIntervals:
         stacked = np.full(len(choice), np.nan)
         for name, weights in self.weights.items():
             rows = np.flatnonzero(choice == name)
-            if len(rows) and all(m in predictions for m in weights):
+            if len(rows) and all(m in predictions for m in members(weights)):
                 stacked[rows] = blend(weights, predictions, rows)
         return {**predictions, STACK: stacked}
 

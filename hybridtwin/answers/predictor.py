@@ -27,6 +27,7 @@ from hybridtwin.io.errors import InputError
 from hybridtwin.io.reading import CsvFormat, checked_numbers
 from hybridtwin.models import compose, peers, registry
 from hybridtwin.models.batches import available_cores
+from hybridtwin.models.stack import members
 from hybridtwin.paper import residual
 from hybridtwin.paper.gate import KNNSupportGate, input_names
 from hybridtwin.paper.surrogate import GPRSurrogate
@@ -178,9 +179,12 @@ class Predictor:
         beyond = regions.outside_range(X, self.doe_range)
         outside_range = (beyond != 0).any(axis=1).to_numpy()
         region = regions.Regions.of(inside, outside_range, distance, self.intervals.edges, self.intervals.beyond_region)
-        novelty = (
-            None if self.neighbourhood is None else self.neighbourhood.distance(self.gate.standardizer_.transform(X))
-        )
+        novelty = None
+        if self.neighbourhood is not None:  # the validated domain needs none: computed for the other rows only
+            novelty = np.zeros(len(X))
+            other = ~(inside & ~outside_range)
+            if other.any():
+                novelty[other] = self.neighbourhood.distance(self.gate.standardizer_.transform(X[other]))
         verdict, reason = trust.verdicts(inside, beyond, distance, self.reach, novelty)
         return answer.Where(distance, inside, beyond, region, verdict, reason, self.doe_range)
 
@@ -194,7 +198,7 @@ class Predictor:
             for model in order:
                 needed[model] = needed.get(model, np.zeros(len(rows), bool)) | rows
                 if model == registry.STACK.name:
-                    for member in self.intervals.weights.get(name, {}):
+                    for member in members(self.intervals.weights.get(name, {})):
                         needed[member] = needed.get(member, np.zeros(len(rows), bool)) | rows
                     break
                 if model in ALWAYS or extension_ok:
@@ -208,10 +212,12 @@ class Predictor:
         needed = self.needed(where, frame.columns)
         if all_models:
             needed = {model.name: np.ones(n, bool) for model in registry.MODELS}
-        surrogate, std = self.surrogate.predict(X, return_std=True)
+        # the surrogate's own standard deviation is bookkeeping: computed only for all_models
+        surrogate, std = self.surrogate.predict(X, return_std=True) if all_models else (self.surrogate.predict(X), None)
         unfiltered = self.residual_unfiltered.predict(X) if all_models else None
         out = compose.hybrids(surrogate, self.residual_filtered.predict(X), where.inside, unfiltered)
-        out[f"{registry.SURROGATE.name}_std"] = std
+        if std is not None:
+            out[f"{registry.SURROGATE.name}_std"] = std
         out.update(self._extended(frame, X, where, (surrogate, out[registry.HYBRID.name]), needed))
         for name in registry.PEER_NAMES:
             rows = np.flatnonzero(needed.get(name, np.zeros(n, bool)))

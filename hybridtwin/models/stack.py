@@ -16,8 +16,13 @@ def stack_weights(measured, predictions: dict[str, np.ndarray], rows: np.ndarray
     return {name: float(w) for name, w in zip(names, weights)}
 
 
+def members(weights: dict[str, float]) -> list[str]:
+    """The models a blend takes: those of non-zero weight (a member weighted 0 need not even be computed)."""
+    return [model for model, weight in weights.items() if weight != 0]
+
+
 def blend(weights: dict[str, float], predictions: dict[str, np.ndarray], rows) -> np.ndarray:
-    return sum((w * predictions[m][rows] for m, w in weights.items()), np.zeros(len(rows)))
+    return sum((weights[m] * predictions[m][rows] for m in members(weights)), np.zeros(len(rows)))
 
 
 def cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarray) -> np.ndarray:
