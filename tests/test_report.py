@@ -52,7 +52,7 @@ def _summary(offset, selected=True):
         "selected": [cause] if selected else [],
         "aliases": {"die_temp_c": []},
         "explained_by": {},
-        "proxies": {"coil_id": {"cause": "die_temp_c", "share": 0.81}},
+        "proxies": {"coil_id": {"accounted_by": ["the model inputs", "die_temp_c"], "share": 0.81}},
     }
 
 
@@ -66,7 +66,7 @@ def test_names_the_cause_the_table_ranks_first_and_the_id_it_stands_for():
     text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm", None, "runs/p4/figures")
     says(text, "1,234 in-support", "## Causes", "1. **`die_temp_c`**", "sigmoid", "saturating", "62.0%")
     says(text, "`runs/p4/figures/cause_1.png`")  # the run's own results folder
-    says(text, "`coil_id`", "id", "`die_temp_c`", "81%")
+    says(text, "`coil_id`", "an id, not a cause", "the model inputs", "surrogate's own error", "`die_temp_c`", "81%")
 
 
 def test_out_of_support_gain_in_words():

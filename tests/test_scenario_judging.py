@@ -8,10 +8,12 @@ NEAR_COPY = Expected("die_temp", ("sigmoid",), alias="die_temp_ir")
 TWO = Expected("die_temp", ("sigmoid",), also=(Expected("strokes", ("linear",), monotone=True),))
 
 
-def _outcome(expected: Expected, *chosen: Chosen, n_significant: int | None = None) -> Outcome:
+def _outcome(expected: Expected, *chosen: Chosen, n_significant: int | None = None, tolerated=()) -> Outcome:
     top = chosen[0] if chosen else Chosen("", "", False)
     n = len(chosen) if n_significant is None else n_significant
-    return Outcome("k", "", expected, top.cause, top.form, bool(chosen), n, 0, *[1.0] * 6, 1.0, 0.0, chosen)
+    return Outcome(
+        "k", "", expected, top.cause, top.form, bool(chosen), n, 0, *[1.0] * 6, 1.0, 0.0, chosen, tolerated=tolerated
+    )
 
 
 def test_the_cause_first_with_its_form_family():
@@ -41,3 +43,22 @@ def test_two_causes_in_either_order_and_both_needed():
 def test_a_null_plant_passes_only_with_nothing_named():
     assert _outcome(Expected(None)).answer_ok
     assert not _outcome(Expected(None), n_significant=1).answer_ok
+
+
+def test_below_the_detection_limit_a_true_cause_may_be_named_but_nothing_else():
+    small = ("ambient_c", "rp02*shim")  # put in, each below the limit
+    assert _outcome(Expected(None), tolerated=small).answer_ok
+    assert _outcome(Expected(None), Chosen("ambient_c", "linear", True), tolerated=small).answer_ok
+    assert _outcome(Expected(None), Chosen("shim*rp02", "product", False), tolerated=small).answer_ok
+    assert not _outcome(Expected(None), Chosen("coil", "group", False), tolerated=small).answer_ok
+    assert not _outcome(Expected(None), Chosen("ambient_c", "linear", True), n_significant=2, tolerated=small).answer_ok
+
+
+def test_every_cause_with_a_near_copy_reports_the_pair_whichever_is_named_first():
+    drift = Expected("time", ("linear",), alias="strokes")
+    both = Expected("die_temp", ("sigmoid",), also=(drift,))
+    heat = Chosen("die_temp", "sigmoid", False)
+    assert _outcome(both, heat, Chosen("strokes", "linear", True, aliases=("time",))).answer_ok
+    assert not _outcome(both, heat, Chosen("strokes", "linear", True)).answer_ok
+    first = Expected("time", ("linear",), alias="strokes", also=(Expected("die_temp", ("sigmoid",)),))
+    assert _outcome(first, heat, Chosen("time", "linear", True, aliases=("strokes",))).answer_ok

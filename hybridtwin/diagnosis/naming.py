@@ -1,5 +1,5 @@
-"""Which column is named for an effect: the simplest that predicts the same, and never an id or elapsed time
-where a logged quantity accounts for it."""
+"""Which column is named for an effect: the simplest that predicts the same, never elapsed time where a logged
+quantity accounts for it, and a product only where it beats its two columns."""
 
 from __future__ import annotations
 
@@ -7,8 +7,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hybridtwin.diagnosis.fits import Fit, Rules, predicts_the_same
-from hybridtwin.diagnosis.policy import PROXY_PENALTY, PROXY_SHARE, PROXY_SHARE_PAIR
+from hybridtwin.diagnosis.candidates import Candidate
+from hybridtwin.diagnosis.fits import Fit, Rules, fold_sets, held_out, predicts_the_same
+from hybridtwin.diagnosis.forms import backfit
+from hybridtwin.diagnosis.policy import PROXY_PENALTY
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.metrics import block_p_value
 
@@ -58,7 +60,7 @@ def prefer_simpler(best: Fit, pool: list[Fit], y, rules: Rules) -> Fit:
         if fit.candidate.kind == "interaction" or fit.candidate.name == best.candidate.name:
             continue
         if fit.candidate.kind == "group" and best.candidate.kind != "group":
-            continue  # an id is named only where no other column accounts for it (:func:`physical_cause`)
+            continue  # ids come last (:mod:`.ids`)
         counted = simplest(fit)
         if counted is not None and _complexity(counted) < own:
             # named with the column's own choice of form (held-out score) among its forms that predict the same
@@ -108,29 +110,39 @@ def proxy_share(proxy: Fit, rival: Fit, y) -> float:
     return 1.0 - after / before
 
 
-def physical_cause(best: Fit, pool: list[Fit], y, acceptable) -> tuple[Fit, float]:
-    """An id (coil, lot, shift) is a proxy, like elapsed time: it stands for whatever changes with it.
+def held_out_sum(columns: list[Fit], splits, y) -> np.ndarray:
+    """Held-out predictions of several columns' forms fitted together (backfitting) on each fold's rows."""
+    oof = np.empty(len(y))
+    for train, test in splits:
+        models, means = backfit([f.candidate.values[train] for f in columns], [f.form.name for f in columns], y[train])
+        oof[test] = y[train].mean() + sum(
+            m.predict(f.candidate.values[test]) - c for m, f, c in zip(models, columns, means)
+        )
+    return oof
 
-    Group offsets recall each level from its own parts, so an id that carries a die
-    temperature, a setting and a material at once out-scores each of them. Both kinds are
-    put on the same footing by asking what the id's level differences are: when a
-    significant candidate that is not an id accounts for most of them
-    (:data:`PROXY_SHARE`; :data:`PROXY_SHARE_PAIR` for a product), that candidate is named, the
-    best-scoring such one. The id
-    stays a candidate for the next step, where it is chosen only if its remainder,
-    given the named cause, is significant. Returns the cause and the share it accounts for.
+
+def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rules) -> Fit:
+    """A product of two columns stands only where it predicts significantly better held out than the sum of its
+    two columns, each in its own best form, given the causes already in (``y``), along each column's values.
+
+    A separate mild tilt in one column (yield strength, with tensile strength beside it) is taken up by the
+    product's own linear terms; the product's bilinear term then only needs to fit the surrogate's error along
+    the other column to out-score the single column. Otherwise the better single column is named (if it is
+    significant), with its tilt as its own form.
     """
-    if best.candidate.kind != "group":
-        return best, 0.0
-    rivals = [(fit, proxy_share(best, fit, y)) for fit in pool if fit.candidate.kind != "group" and acceptable(fit)]
-    rivals = [
-        (fit, share)
-        for fit, share in rivals
-        if share >= (PROXY_SHARE_PAIR if fit.candidate.kind == "interaction" else PROXY_SHARE)
-    ]
-    if not rivals:
-        return best, 0.0
-    return min(rivals, key=lambda rival: (rival[0].score, rival[0].candidate.name))
+    if best.candidate.kind != "interaction":
+        return best
+    columns = [rules.best_fit(candidates[name], y) for name in best.candidate.columns if name in candidates]
+    if len(columns) < 2:
+        return best
+    settings = rules.settings
+    for splits in fold_sets(best.candidate, settings):
+        product = held_out(best.form.name, best.candidate.values, y, splits)
+        beaten = block_p_value(y, product, settings.n_blocks, reference=held_out_sum(columns, splits, y))
+        if beaten >= settings.alpha:
+            single = min(columns, key=lambda fit: (fit.score, fit.candidate.name))
+            return single if rules.significant(single) else best
+    return best
 
 
 def _complexity(fit: Fit) -> float:

@@ -15,11 +15,6 @@ MAX_CLOSED_FORM_PARAMS = 3
 # elapsed time and a product of two columns count this many parameters more than they have: both stand
 # for something else (what changes with time; one of the two columns)
 PROXY_PENALTY = 0.5
-# an id stands for a quantity that accounts for at least this share of its level differences
-PROXY_SHARE = 0.5
-# a product of two columns must account for more: among dozens of pairs with three parameters each,
-# one took up half of a few dozen coil offsets by chance (3 of 13 coil_itself plants of the families bank)
-PROXY_SHARE_PAIR = 0.75
 # confounding: a chosen cause is tested both ways against the strongest rivals that explain at least this
 # share of what it explains on its own, at most this many of them
 RIVAL_SHARE = 0.5

@@ -28,7 +28,8 @@ from hybridtwin.diagnosis.candidates import Candidate, build_candidates
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
-from hybridtwin.diagnosis.naming import physical_cause, prefer_simpler
+from hybridtwin.diagnosis.ids import id_stands
+from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
 from hybridtwin.diagnosis.policy import REFINE_PASSES, SHARE_TOLERANCE
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.diagnosis.table import Found, causes_table
@@ -61,8 +62,8 @@ class Diagnosis:
 @dataclass
 class Selection:
     """The forward selection's state: the causes chosen so far (refitted jointly), what they leave of the
-    offset-free residual ``y``, every other candidate's fit to that, and the ids named for a quantity
-    (id -> the cause named for it, and the share of its level differences that cause accounts for)."""
+    offset-free residual ``y``, every other candidate's fit to that, and the ids not named
+    (id -> what accounts for its offsets, held out by level, and the share of its level differences it accounts for)."""
 
     y: np.ndarray
     candidates: list[Candidate]
@@ -71,7 +72,7 @@ class Selection:
     chosen: list[Fit] = field(default_factory=list)
     remaining: np.ndarray | None = None
     conditional: dict[str, Fit] = field(default_factory=dict)
-    proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
+    proxies: dict[str, tuple[tuple[str, ...], float]] = field(default_factory=dict)
 
     def __post_init__(self):
         self.remaining = self.y if self.remaining is None else self.remaining
@@ -91,20 +92,40 @@ class Selection:
         self.conditional = self.rules.fit_all([c for c in self.candidates if c.name not in self.names], self.remaining)
 
     def next_cause(self) -> Fit | None:
-        """The next cause given those chosen, or None when no candidate is significant."""
+        """The next cause given those chosen, or None when no candidate is significant; ids come last."""
         chosen = self.names
         # a pair that is no interaction is not a candidate
         pool = [f for n, f in self.conditional.items() if n not in chosen and f.form.name != forms.Additive.name]
-        if not pool:
+        smooth = [f for f in pool if f.candidate.kind != "group"]
+        best = self._next_smooth(smooth) if smooth else None
+        return best if best is not None else self._next_id([f for f in pool if f.candidate.kind == "group"])
+
+    def _next_smooth(self, pool: list[Fit]) -> Fit | None:
+        """The best significant column, product or time given those chosen (the simplest that predicts the same).
+
+        A better-scoring candidate that is not significant (a drift whose gain comes in a few blocks) does not
+        stop the selection: the ids would then be tried with a significant smooth cause still in the residual.
+        """
+        significant = [fit for fit in pool if self.rules.significant(fit)]
+        if not significant:
             return None
         best = prefer_simpler(
-            min(pool, key=lambda fit: (fit.score, fit.candidate.name)), pool, self.remaining, self.rules
+            min(significant, key=lambda fit: (fit.score, fit.candidate.name)), pool, self.remaining, self.rules
         )
-        named, share = physical_cause(best, pool, self.remaining, self.rules.significant)
-        if named is not best:
-            self.proxies[best.candidate.name] = (named.candidate.name, share)
-            best = prefer_simpler(named, pool, self.remaining, self.rules)
+        best = product_or_column(best, {c.name: c for c in self.candidates}, self.remaining, self.rules)
         return best if self.rules.significant(best) else None
+
+    def _next_id(self, pool: list[Fit]) -> Fit | None:
+        """The best id whose offsets stand once the model inputs' surface and the smooth candidates are out
+        (:func:`~hybridtwin.diagnosis.ids.id_stands`); an id they account for is recorded, not named."""
+        for fit in sorted(pool, key=lambda fit: (fit.score, fit.candidate.name)):
+            if not self.rules.significant(fit):
+                continue
+            stands, names, share = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules)
+            if stands:
+                return fit
+            self.proxies[fit.candidate.name] = (names, share)
+        return None
 
     def forward(self) -> None:
         """Forward selection, each step conditional on the causes already chosen."""
@@ -132,14 +153,30 @@ class Selection:
             changed = True
         return changed
 
+    def drop_products_an_id_holds(self) -> None:
+        """A product chosen before an id goes where it adds nothing significant once the id is in.
+
+        Among dozens of pairs, one can take up part of a few dozen coil offsets by chance (settings change
+        with the coils); chosen before the ids (ids come last), it would stand beside the true coil effect.
+        """
+        if not any(fit.candidate.kind == "group" for fit in self.chosen):
+            return
+        for j in reversed(range(len(self.chosen))):
+            fit = self.chosen[j]
+            if fit.candidate.kind == "interaction" and not self.rules.significant(
+                self.rules.best_fit(fit.candidate, self._partial_residual(j))
+            ):
+                del self.chosen[j]
+                self.refit()
+
     def choose_again_after_the_first(self) -> None:
         """The causes after the first were chosen given a first cause that has changed: choose them again."""
         del self.chosen[1:]
+        self.proxies = {}
         self.refit()
         self.forward()
         self.refine()
         self.refit()
-        self.proxies = {key: value for key, value in self.proxies.items() if value[0] in self.names}
 
     def _partial_residual(self, j: int) -> np.ndarray:
         """``y`` less the other chosen causes' terms of the joint fit, centred."""
@@ -225,6 +262,7 @@ def diagnose(
     selection.forward()
     if selection.refine():
         selection.choose_again_after_the_first()
+    selection.drop_products_an_id_holds()
     aliases, explained_by = confounding(selection.chosen, selection.marginal, y, rules)
     found = Found(selection.marginal, selection.conditional, selection.chosen, aliases, explained_by, selection.proxies)
     table = causes_table(found, skipped, rules)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.fits import Rules
+from hybridtwin.diagnosis.ids import accounted_words
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis
@@ -53,7 +54,8 @@ def _row(name: str, fit, found: Found, rules: Rules) -> dict:
         significant, scored, shown = True, final, final
     else:
         scored = found.conditional.get(name, fit)
-        significant, shown = bool(rules.significant(scored if found.chosen else fit)), fit
+        significant = bool(rules.significant(scored if found.chosen else fit)) and name not in found.proxies
+        shown = fit
     form = shown.form
     return {
         "cause": name,
@@ -80,8 +82,11 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
     chosen = [s.candidate.name for s in found.chosen]
     alias_of = [cause for cause, names in found.aliases.items() if name in names]
     if name in found.proxies and name not in chosen:
-        cause, share = found.proxies[name]
-        return f"an id that stands for {cause}: it accounts for {share:.0%} of the differences between its levels"
+        names, share = found.proxies[name]
+        return (
+            f"an id, not a cause: {accounted_words(names)} account for {share:.0%} of the differences between its "
+            "levels (fitted on its other levels), and what is left passes no rule of a cause"
+        )
     if found.aliases.get(name):
         return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
     if alias_of:
@@ -125,5 +130,7 @@ def summary_dict(result: Diagnosis) -> dict:
         "aliases": result.aliases,
         "explained_by": result.explained_by,
         "skipped": result.skipped,
-        "proxies": {name: {"cause": cause, "share": share} for name, (cause, share) in result.proxies.items()},
+        "proxies": {
+            name: {"accounted_by": list(names), "share": share} for name, (names, share) in result.proxies.items()
+        },
     }

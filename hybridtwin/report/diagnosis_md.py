@@ -7,6 +7,7 @@ import re
 
 import pandas as pd
 
+from hybridtwin.diagnosis.ids import accounted_words
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
 # the report's words for the gain table's columns
@@ -139,9 +140,10 @@ def _not_separated(summary: dict) -> list[str]:
             )
     for proxy, named in summary.get("proxies", {}).items():
         notes.append(
-            f"- {code(proxy)} is an id: it stands for whatever changes with it. {code(named['cause'])} accounts "
-            f"for {named['share']:.0%} of the differences between its levels, so {code(named['cause'])} is "
-            "named as the cause."
+            f"- {code(proxy)} is an id, not a cause: it stands for whatever changes with it. "
+            f"{accounted_words(named['accounted_by'], code)} account for {named['share']:.0%} of the differences "
+            "between its levels, fitted on its other levels, and what is left of them is too small to tell from "
+            "the surrogate's own error."
         )
     for other, cause in summary["explained_by"].items():
         notes.append(

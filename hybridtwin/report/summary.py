@@ -12,6 +12,7 @@ import re
 
 import pandas as pd
 
+from hybridtwin.diagnosis.ids import accounted_words
 from hybridtwin.models import registry
 
 REGION_WORDS = {"in_support": "in the validated domain (in support)"}
@@ -53,7 +54,8 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
             f"{cause['explained_share']:.0%} of the residual's variance held out, p = {cause['p_value']:.1g})."
         )
     for proxy, named in diagnosis.get("proxies", {}).items():
-        lines.append(f"  ``{proxy}`` is an id standing for ``{named['cause']}``.")
+        accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
+        lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
     return lines + [""]
 
 

@@ -1,0 +1,115 @@
+"""An id is not a cause: what an id's offsets hold once the surrogate's own error and smooth plant quantities are out.
+
+An id (coil, lot, shift) recalls each level from its own parts. Where the material is per coil, the surrogate's
+own error is constant within a coil too, and coils run in time order, so a coil's offsets also follow every slow
+quantity (wear, ambient temperature, the season). With one parameter per level they out-score a smooth cause
+that is too small to pass the surrogate margin alone, or several causes at once.
+
+The surrogate's error is a smooth function of the model inputs; so is any discrepancy that depends on the
+inputs alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitted on the other levels
+and so unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
+significant on their own, below the margin too). The id is named only where its offsets, with both held out by
+level, still pass every rule of a cause. A GPR posterior's draws were the first candidate for this null; on the
+structures bank's plants the surrogate's real error across coils was 2-10 times the draws' (the GPR's
+hyperparameters, fitted on a few dozen runs, are over-confident), so the null is taken from the data instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.linear_model import Ridge, RidgeCV
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+from hybridtwin.diagnosis.candidates import Candidate
+from hybridtwin.diagnosis.fits import Fit, Rules
+from hybridtwin.diagnosis.forms import fit_form
+from hybridtwin.diagnosis.naming import between_level_ss
+
+RIDGE_PENALTIES = np.logspace(-3, 4, 15)
+MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets together with the input surface
+PASSES = 3  # backfitting passes of the surface and the smooth candidates
+INPUT_SURFACE = "the model inputs"  # how the surface is named among what accounts for an id's offsets
+
+
+def surface(inputs: np.ndarray, y: np.ndarray, penalty: float | None = None):
+    """A quadratic surface of the standardized inputs (ridge); its penalty by generalized cross-validation when
+    none is given."""
+    ridge = Ridge(alpha=penalty) if penalty is not None else RidgeCV(alphas=RIDGE_PENALTIES)
+    return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), ridge).fit(inputs, y)
+
+
+def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Folds of whole levels: no level is both fitted and predicted."""
+    codes = np.unique(np.asarray(labels).astype(str), return_inverse=True)[1]
+    n_levels = codes.max() + 1
+    fold_of_level = np.random.default_rng(seed).permutation(n_levels) % min(n_folds, n_levels)
+    fold = fold_of_level[codes]
+    return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(fold.max() + 1)]
+
+
+def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time")) -> list[Fit]:
+    """The smooth candidates that may account for an id's offsets: significant on their own but for the margin
+    (too small to be named alone), best first; of ``kinds`` (the input surface holds the inputs and their
+    products)."""
+    usable = [
+        fit
+        for fit in fits
+        if fit.candidate.kind in kinds and fit.p_value < rules.settings.alpha / max(1, rules.n_tests) and fit.score < 0
+    ]
+    return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
+
+
+def _predict_held_out(train, test, y, inputs, smooth: list[Fit], penalty) -> np.ndarray:
+    """The surface and the smooth candidates backfitted on ``train``, predicted on ``test``."""
+    terms = [np.zeros(len(train)) for _ in smooth]
+    fitted_surface = None
+    for _ in range(PASSES):
+        if inputs is not None:
+            fitted_surface = surface(inputs[train], y[train] - sum(terms, np.zeros(len(train))), penalty)
+            base = fitted_surface.predict(inputs[train])
+        else:
+            base = np.zeros(len(train))
+        models = []
+        for j, fit in enumerate(smooth):
+            others = base + sum((t for k, t in enumerate(terms) if k != j), np.zeros(len(train)))
+            models.append(fit_form(fit.form.name, fit.candidate.values[train], y[train] - others))
+            terms[j] = models[-1].predict(fit.candidate.values[train])
+    prediction = np.zeros(len(test)) if fitted_surface is None else fitted_surface.predict(inputs[test])
+    return prediction + sum((m.predict(f.candidate.values[test]) for m, f in zip(models, smooth)), np.zeros(len(test)))
+
+
+def unaccounted(group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules) -> np.ndarray:
+    """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
+    levels of ``group``: what the id's offsets hold beyond them."""
+    matrix = np.column_stack([c.values for c in inputs]) if inputs else None
+    penalty = surface(matrix, y).steps[-1][1].alpha_ if matrix is not None else None
+    explained = np.zeros(len(y))
+    settings = rules.settings
+    for train, test in level_folds(group.values, settings.folds, settings.seed):
+        explained[test] = _predict_held_out(train, test, y, matrix, smooth, penalty)
+    left = y - explained
+    return left - left.mean()
+
+
+def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules):
+    """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
+    (held out by level); with the names of what accounts for them and the share of its level differences."""
+    inputs = [c for c in candidates if c.kind == "input"]
+    smooth = smooth_accounts(list(conditional.values()), rules, ("log", "time") if inputs else ("log", "time", "input"))
+    left = unaccounted(fit.candidate, y, inputs, smooth, rules)
+    before = between_level_ss(fit.candidate.values, y)
+    share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
+    names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth]
+    return rules.significant(rules.best_fit(fit.candidate, left)), tuple(names), float(max(0.0, share))
+
+
+def accounted_words(names, code=str) -> str:
+    """What accounts for an id's offsets, in words; ``code`` formats a column's name."""
+    words = [
+        f"{INPUT_SURFACE} (the surrogate's own error, or an effect of the inputs alone)"
+        if name == INPUT_SURFACE
+        else code(name)
+        for name in names
+    ]
+    return " and ".join(words) if words else "nothing"
