@@ -24,7 +24,10 @@ from hybridtwin.answers.trust import VALIDATED
 
 MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
 MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
+# a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
+SHARE_MARGIN = 0.02
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
+STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
 KNOWN, NEW, UNEXPLAINED = "known cause", "new candidate", "unexplained"
 
 
@@ -75,8 +78,22 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, 
     split = np.arange(1, n)
     left = squares[:-1] - total[:-1] ** 2 / split
     right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
+    # a step, not a trend (a die warming up): two levels fit far better than a straight line
+    line = np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))
+    if np.min(left + right) > 0.25 * np.sum((around - line) ** 2):
+        return None
     at = max(0, start - window // 2) + int(split[np.argmin(left + right)])
     return at, float(np.median(before)), float(np.median(after))
+
+
+def step_share(residual: np.ndarray, after: np.ndarray) -> float:
+    """The share of the residual's variance a step at the start explains (a level before, one after): what time
+    alone explains."""
+    total = np.sum((residual - residual.mean()) ** 2)
+    if total <= 0 or after.all() or not after.any():
+        return 0.0
+    left = np.sum((residual[~after] - residual[~after].mean()) ** 2)
+    return float(1.0 - (left + np.sum((residual[after] - residual[after].mean()) ** 2)) / total)
 
 
 def _found_causes(frame: pd.DataFrame, residual: np.ndarray, inputs, unit: str, seed: int) -> list:
@@ -102,6 +119,7 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     frame = _diagnosis_frame(table, added, target)
     rows = np.flatnonzero(judged & (np.arange(len(residual)) >= start - (WINDOW if before.any() else 0)))
     found = _found_causes(frame.iloc[rows].reset_index(drop=True), residual[rows], predictor.inputs, unit, seed)
+    found = [fit for fit in found if fit.explained_share > step_share(residual[rows], rows >= start) + SHARE_MARGIN]
     not_validated = table["trust"].to_numpy() != VALIDATED
     outside = float(np.mean(not_validated[start:]))
     common = {"shift": shift, "start_part": start + 1, "n_after": int(after.sum()), "outside_support": outside}
@@ -118,11 +136,11 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
     known = predictor.extension.extension.columns
     timing = clocks(frame)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
-    for fit in physical:
-        if set(fit.candidate.columns) & known:
+    for fit in found:  # a known cause, a wear drift along a counter among them (a trend: not a step in time)
+        if set(fit.candidate.columns) & known and (fit in physical or fit.form.name not in STEPS):
             name = fit.candidate.name
             return KNOWN, name, f"the {name} effect changed by {fit.effect_range:.1f} {unit} over the batch"
-    physical = physical if found and physical and found[0] is physical[0] else []  # time came first: it is time
+    physical = physical if physical and found[0] is physical[0] else []  # time came first: it is time
     steps = {}
     for column in frame.columns:
         values = frame[column]
