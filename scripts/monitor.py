@@ -11,7 +11,7 @@ from hybridtwin.monitor import figure, watch, words
 def main(snakemake):
     predictor = Predictor.load(Path(snakemake.input.manifest).parent)
     batch = snakemake.input.batch
-    watched = watch.watch(predictor, watch.load_batch(batch, predictor), seed=snakemake.params.seed)
+    watched = watch.watch(predictor, watch.load_batch(batch, predictor))  # as the command: the same answer
     predictor.write(watched.table, snakemake.output.table)
     with files.atomic_path(snakemake.output.words) as temporary:
         temporary.write_text(words.markdown(watched, Path(batch).name))

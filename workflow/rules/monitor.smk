@@ -22,6 +22,5 @@ rule monitor:
         "../envs/hybridtwin.yaml"
     params:
         code=PACKAGE_CODE,
-        seed=SEED,
     script:
         "../../scripts/monitor.py"
