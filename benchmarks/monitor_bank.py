@@ -85,7 +85,7 @@ def changed(predictor, batch, case, kind, rng) -> tuple[pd.DataFrame, str | None
         column = sorted(predictor.extension.extension.columns - clocks(batch))[0]
         x = out[column].to_numpy(float)
         low, high = np.quantile(x[after], [0.1, 0.9])
-        out.loc[after, target] += 2 * 3 * noise * (x[after] - low) / (high - low)
+        out.loc[after, target] += 2 * 3 * noise * np.clip((x[after] - low) / (high - low), 0.0, 1.0)
         return out, column, KNOWN
     if kind == "new coil supplier":
         coil = case.names["coil"]

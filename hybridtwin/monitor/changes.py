@@ -26,6 +26,7 @@ MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
 MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
 # a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
 SHARE_MARGIN = 0.02
+BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
 KNOWN, NEW, UNEXPLAINED = "known cause", "new candidate", "unexplained"
@@ -96,6 +97,19 @@ def step_share(residual: np.ndarray, after: np.ndarray) -> float:
     return float(1.0 - (left + np.sum((residual[after] - residual[after].mean()) ** 2)) / total)
 
 
+def boundary_of(values: pd.Series, start: int, tolerance: int = BOUNDARY) -> int | None:
+    """The part nearest ``start`` (within ``tolerance``) at which a text column (a coil id, a lot) takes a new
+    value, or None; a column that changes at more than one part in ten is no such column."""
+    if pd.api.types.is_numeric_dtype(values) or len(values) < 2:
+        return None
+    text = values.astype(str).to_numpy()
+    changes = np.flatnonzero(text[1:] != text[:-1]) + 1
+    if len(changes) > 0.1 * len(text):
+        return None
+    near = changes[np.abs(changes - start) <= tolerance]
+    return int(near[np.argmin(np.abs(near - start))]) if len(near) else None
+
+
 def _found_causes(frame: pd.DataFrame, residual: np.ndarray, inputs, unit: str, seed: int) -> list:
     from hybridtwin.diagnosis import Settings, diagnose
 
@@ -159,6 +173,15 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
         return NEW, name, _step_text(name, steps[name])
+    for column in frame.columns:  # or a new coil (lot, supplier) began where it started
+        at = boundary_of(frame[column], start) if column not in timing else None
+        if at is not None:
+            level = frame[column].iloc[at]
+            return (
+                NEW,
+                column,
+                f"a change with {column}: since part {at + 1:,} ({level}) the parts sit {shift:+.1f} {unit} off",
+            )
     return (
         UNEXPLAINED,
         None,
