@@ -11,7 +11,7 @@ from hybridtwin.answers.predictor import Predictor
 from hybridtwin.cli import main
 from hybridtwin.io.errors import InputError
 from hybridtwin.monitor import chart, watch, words
-from hybridtwin.monitor.changes import NEW, UNEXPLAINED, clocks, step_of
+from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, step_of
 
 from .conftest import says
 
@@ -91,6 +91,13 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     assert step_of(np.linspace(20, 60, 800) + rng.normal(0, 0.3, 800), 400) is None
     frame = pd.DataFrame({"strokes": np.arange(10), "t": pd.date_range("2026-01-01", periods=10).astype(str)})
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
+
+
+def test_a_new_coil_that_begins_where_the_change_starts_is_found_and_an_id_per_part_is_not():
+    coils = pd.Series(np.repeat(["K1", "K2", "K3"], [150, 200, 150]))
+    assert boundary_of(coils, 345) == 350 and boundary_of(coils, 335) is None
+    assert boundary_of(pd.Series([f"P{i}" for i in range(500)]), 350) is None
+    assert boundary_of(pd.Series(np.arange(500.0)), 350) is None
 
 
 def test_what_changed_names_a_stepped_setting(predictor, parts):
