@@ -76,6 +76,17 @@ def test_the_logs_own_parts_are_in_control(predictor, parts):
     says(words.summary(watched), "in control", "400 parts")
 
 
+def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
+    batch = parts.copy()
+    batch.loc[200:, "shim21_mm"] += 0.3  # far beyond the log: trust 'extrapolation', and no error is expected there
+    batch.loc[200:, "draw_in_mm"] += 10.0
+    watched = watch.watch(predictor, batch)
+    far = watched.table["trust"].to_numpy() == "extrapolation"
+    assert far[200:].all() and not far[:200].any() and watched.table["expected_error"][far].isna().all()
+    assert watched.chart.alarm_at is None and watched.judged.sum() == 200
+    says(words.summary(watched), "in control", "200 parts judged", "200 parts were not judged")
+
+
 def test_a_step_alarms_soon_after_it_starts_and_is_unexplained(stepped):
     assert 200 <= stepped.chart.alarm_at <= 215 and abs(stepped.chart.start_at - 200) <= 3
     assert stepped.table["change_start"].iloc[-1] == stepped.chart.start_at + 1
