@@ -12,7 +12,7 @@ offset (which must be called unexplained). On the same batches, side by side: a 
 (textbook k=0.5, h=5 on the residual over its pooled calibration error; and with the monitor's k and h), river's
 ADWIN and Page-Hinkley on the residual (their defaults). Then 100,000 parts through the command, timed.
 
-    python benchmarks/monitor_bank.py --plants 3 --seed 31      # about 5 minutes a plant, alone on 2 cores
+    python benchmarks/monitor_bank.py --plants 3 --seed 32      # about 5 minutes a plant, alone on 2 cores
 
 Writes benchmarks/results/monitor_bank.csv (a row per batch and method) and monitor_bank.md (the summary).
 """
@@ -64,7 +64,13 @@ def baselines(residual: np.ndarray, scale: float) -> dict[str, int | None]:
 
 
 def pooled_scale(predictor) -> float:
-    errors = [e for per_region in predictor.intervals.calibration.values() for r in per_region.values() for e in r]
+    """One error for every part, as a plain chart knows it: the recommended models' calibration errors pooled."""
+    intervals = predictor.intervals
+    errors = [
+        e
+        for region, model in intervals.recommended.items()
+        for e in intervals.calibration.get(model, {}).get(region, [])
+    ]
     return float(np.sqrt(np.mean(np.square(errors))))
 
 
@@ -128,7 +134,7 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list)
         batches = [fresh.iloc[i * BATCH : (i + 1) * BATCH].reset_index(drop=True) for i in range(n_batches)]
         inside = predictor.where(predictor.checked(fresh)).inside
         plant = f"{family} seed {seed * 100 + index}"
-        for number, batch in enumerate([*batches, fresh[inside].reset_index(drop=True)]):
+        for number, batch in enumerate([*batches, fresh[inside].iloc[:BATCH].reset_index(drop=True)]):
             label = "in control, in support" if number == n_batches else "in control"
             rows += _rows(predictor, batch, plant, label, None, None, "", scale)
         kinds = [f"step {m:g}" for m in STEPS] + ["drift", *CAUSES]
@@ -158,16 +164,23 @@ def _rows(predictor, batch, plant, kind, start, column, verdict, scale) -> list[
     return rows
 
 
-def timing(predictor_models: Path, batch: pd.DataFrame, folder: Path) -> float:
+def timing(predictor_models: Path, batch: pd.DataFrame, folder: Path) -> tuple[float, float]:
+    """Seconds for the command (read, load the models, predict, chart, write) and for the check in memory with
+    the models loaded (predict and chart)."""
     path = folder / "big.csv"
     batch.to_csv(path, index=False)
     began = time.perf_counter()
-    command = ["hybridtwin", "monitor", str(path), "--models", str(predictor_models), "-o", str(folder / "o.csv")]
-    subprocess.run(command, check=True, capture_output=True)
-    return time.perf_counter() - began
+    command = [sys.executable, "-m", "hybridtwin.cli", "monitor", str(path), "--models", str(predictor_models)]
+    subprocess.run([*command, "-o", str(folder / "o.csv")], check=True, capture_output=True)
+    total = time.perf_counter() - began
+    predictor = Predictor.load(predictor_models)
+    watch.watch(predictor, batch.iloc[:2000])  # the peers are read on first use
+    began = time.perf_counter()
+    watch.watch(predictor, batch, explain=False)
+    return total, time.perf_counter() - began
 
 
-def summary(table: pd.DataFrame, seconds: float) -> str:
+def summary(table: pd.DataFrame, seconds: tuple[float, float]) -> str:
     lines = ["## False alarms and delays (parts after the change starts; median, and share within 150)", ""]
     lines += [
         "| method | in-control batches with an alarm | in support | "
@@ -201,8 +214,8 @@ def summary(table: pd.DataFrame, seconds: float) -> str:
         f"| all | {len(monitor)} | {int(monitor['alarm_at'].notna().sum())} | {int(right.sum())} "
         f"({right.mean():.0%}) |",
         "",
-        f"100,000 parts through `hybridtwin monitor` (read, predict, chart, "
-        f"write; in control): {seconds:.1f} s wall time on this machine",
+        f"100,000 parts through `hybridtwin monitor` (read, load the models, predict, chart, write): "
+        f"{seconds[0]:.1f} s wall time; in memory with the models loaded (predict, chart): {seconds[1]:.1f} s",
     ]
     return "\n".join(lines)  # fmt: skip
 
@@ -210,7 +223,7 @@ def summary(table: pd.DataFrame, seconds: float) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--plants", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=31)
+    parser.add_argument("--seed", type=int, default=32)
     parser.add_argument("--log", type=int, default=8000, help="parts the workflow learns from")
     parser.add_argument("--batches", type=int, default=7, help="in-control batches of 10,000 parts per plant")
     args = parser.parse_args()
@@ -222,7 +235,7 @@ def main() -> None:
     table.to_csv(OUT / "monitor_bank.csv", index=False)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT)
     text = (f"# Monitor bank\n\n`python benchmarks/monitor_bank.py {' '.join(sys.argv[1:])}` at commit "
-            f"{commit.stdout.strip()}\n\n{summary(table, timings[0] if timings else float('nan'))}\n")  # fmt: skip
+            f"{commit.stdout.strip()}\n\n{summary(table, timings[0] if timings else (np.nan, np.nan))}\n")  # fmt: skip
     (OUT / "monitor_bank.md").write_text(text)
     print(text)
 

@@ -10,7 +10,7 @@ import pytest
 from hybridtwin.answers.predictor import Predictor
 from hybridtwin.cli import main
 from hybridtwin.io.errors import InputError
-from hybridtwin.monitor import chart, watch, words
+from hybridtwin.monitor import calibration, chart, watch, words
 from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, step_of
 
 from .conftest import says
@@ -60,6 +60,14 @@ def test_parts_not_judged_leave_the_statistic_as_it_was():
     assert result.statistic[104] == result.statistic[4] == 5.0
     assert result.alarm_at == 108 and result.start_at == 0
     assert chart.cusum(np.r_[np.zeros(10), 100.0], 1.0, 8.0).alarm_at is None  # one wild part is clipped at 4
+
+
+def test_the_allowance_is_the_least_that_keeps_the_logs_own_excursions_under_half_the_limit():
+    assert calibration.allowance(np.zeros(500)) == chart.REFERENCE
+    settled = np.r_[np.zeros(300), np.full(200, 1.5), np.zeros(300)]  # a campaign 1.5 expected errors off
+    k = calibration.allowance(settled, limit=20.0)
+    assert k == pytest.approx(1.45, abs=0.002)  # 200 * (1.5 - k) = 10
+    assert calibration.log_peak(settled, k) < 10.0 <= calibration.log_peak(settled, k - 0.01)
 
 
 def test_expected_error_is_the_root_mean_square_of_the_regions_calibration(predictor):

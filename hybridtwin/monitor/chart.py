@@ -63,6 +63,7 @@ class Chart:
     up: np.ndarray
     down: np.ndarray
     limit: float
+    reference: float
     alarm_at: int | None  # index of the first part in alarm
     start_at: int | None  # index of the part the change is estimated to start at
     direction: int  # +1: the plant measures more than the models expect; -1: less; 0: no alarm
@@ -88,10 +89,12 @@ def cusum(z, reference: float = REFERENCE, limit: float = LIMIT, clip: float = C
     down, down_start = one_side(-judged - allowance)
     over = np.flatnonzero(np.maximum(up, down) > limit)
     if not len(over):
-        return Chart(z, up, down, limit, None, None, 0)
+        return Chart(z, up, down, limit, reference, None, None, 0)
     at = int(over[0])
     direction = 1 if up[at] > limit else -1
     start = int((up_start if direction > 0 else down_start)[at])
     # a part not judged cannot start a change: the first judged part of the excursion
     judged_from = np.flatnonzero(~np.isnan(z[start : at + 1]))
-    return Chart(z, up, down, limit, at, start + int(judged_from[0]) if len(judged_from) else start, direction)
+    return Chart(
+        z, up, down, limit, reference, at, start + int(judged_from[0]) if len(judged_from) else start, direction
+    )

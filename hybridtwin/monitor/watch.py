@@ -133,7 +133,8 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     expected = chart.expected_error(predictor.intervals, answers["recommended_model"], where.region.interval)
     judged = (np.asarray(where.trust) != EXTRAPOLATION) & np.isfinite(expected) & (expected > 0)
     z = np.where(judged, residual / np.where(judged, expected, 1.0), np.nan)
-    result = chart.cusum(z)
+    stored = predictor.spec.get("monitor", {})  # the allowance the log needed (models written before it: the floor)
+    result = chart.cusum(z, stored.get("allowance", chart.REFERENCE), stored.get("limit", chart.LIMIT))
     table = batch.reset_index(drop=True).copy()
     added = {
         "part": np.arange(1, len(batch) + 1),

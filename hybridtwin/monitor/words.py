@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from hybridtwin.monitor import chart as charting
 from hybridtwin.monitor.changes import UNEXPLAINED
 
 # what a rerun after appending the batch to the production log (config data.production) runs again: every rule
@@ -88,7 +87,7 @@ def markdown(watched, batch_name: str) -> str:
         f"| parts judged | {int(judged.sum()):,} |",
         f"| mean residual of the judged parts | {np.mean(residual[judged]) if judged.any() else float('nan'):+.2f} "
         f"{watched.unit} |",
-        f"| statistic: allowance k, limit h | {charting.REFERENCE:g}, {watched.chart.limit:g} expected errors |",
+        f"| statistic: allowance k, limit h | {watched.chart.reference:g}, {watched.chart.limit:g} expected errors |",
     ]
     text = [f"# Monitor: {batch_name}", "", headline(watched) + ".", ""]
     if watched.change is not None:
