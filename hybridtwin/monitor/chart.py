@@ -10,12 +10,13 @@ not judged and leaves the statistic as it was.
 The standardized residual ``z`` (clipped at :data:`CLIP`, so that one wild part cannot raise an alarm alone) feeds
 the tabular CUSUM (Page 1954) on both sides: ``S+ = max(0, S+ + z - k)``, ``S- = max(0, S- - z - k)``. An
 alarm is raised at the first part where either exceeds the limit ``h``; the change is estimated to start right
-after the alarming side's last zero. ``k`` (:data:`REFERENCE`) is an allowance: a settled offset of less than one
-expected error per part is what the models' own error at a new campaign of settings can be, and never adds up;
-above it, the excess adds up part after part. ``h`` (:data:`LIMIT`) then sets how much excess makes an alarm: an
-offset of 1.5 expected errors alarms after about 20 / 0.5 = 40 parts; on independent in-control errors the
-average run to a false alarm is beyond 10^15 parts (Siegmund's approximation), so an in-control false alarm
-comes from the models' own error at some settings, not from the noise.
+after the alarming side's last zero. ``k`` is an allowance: a settled offset smaller than ``k`` expected errors
+per part is what the models' own error at a new campaign of settings can be, and never adds up; above it, the
+excess adds up part after part. ``k`` is at least :data:`REFERENCE`, more where the production log itself needed
+more to stay in control (:mod:`.calibration`). ``h`` (:data:`LIMIT`) then sets how much excess makes an alarm:
+with ``k = 1`` an offset of 1.5 expected errors alarms after about 20 / 0.5 = 40 parts; on independent
+in-control errors the average run to a false alarm is beyond 10^15 parts (Siegmund's approximation), so an
+in-control false alarm comes from the models' own error at some settings, not from the noise.
 """
 
 from __future__ import annotations
