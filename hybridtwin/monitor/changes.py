@@ -27,6 +27,7 @@ MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: th
 # a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
 SHARE_MARGIN = 0.02
 BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
+LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
 KNOWN, NEW, UNEXPLAINED = "known cause", "new candidate", "unexplained"
@@ -73,7 +74,8 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, 
     low, high = np.quantile(before, [0.005, 0.995])
     if np.mean((after < low) | (after > high)) < 0.9:
         return None
-    around = values[max(0, start - window // 2) : start + window // 2]
+    first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
+    around = values[first : start + LOCAL]
     n = len(around)
     total, squares = np.cumsum(around), np.cumsum(around**2)
     split = np.arange(1, n)
@@ -83,7 +85,7 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, 
     line = np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))
     if np.min(left + right) > 0.25 * np.sum((around - line) ** 2):
         return None
-    at = max(0, start - window // 2) + int(split[np.argmin(left + right)])
+    at = first + int(split[np.argmin(left + right)])
     return at, float(np.median(before)), float(np.median(after))
 
 
