@@ -88,7 +88,11 @@ def changed(predictor, batch, case, kind, rng) -> tuple[pd.DataFrame, str | None
         out.loc[after, target] += 3 * noise
         return out, None, UNEXPLAINED
     if kind == "known cause grows":
-        column = sorted(predictor.extension.extension.columns - clocks(batch))[0]
+        known = sorted(predictor.extension.extension.columns - clocks(batch))
+        known = [column for column in known if pd.api.types.is_numeric_dtype(batch[column])]
+        if not known:  # the workflow named no cause but time or a counter: nothing known can grow here
+            return None, None, ""
+        column = known[0]
         x = out[column].to_numpy(float)
         low, high = np.quantile(x[after], [0.1, 0.9])
         out.loc[after, target] += 2 * 3 * noise * np.clip((x[after] - low) / (high - low), 0.0, 1.0)
@@ -141,6 +145,8 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list)
         for number, batch in enumerate(batches[:3]):
             for kind in kinds:
                 altered, column, verdict = changed(predictor, batch, case, kind, rng)
+                if altered is None:
+                    continue
                 rows += _rows(predictor, altered, plant, kind, START, column, verdict, scale)
         if index == 0:
             timings.append(timing(models, fresh.iloc[:TIMED], Path(scratch)))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from hybridtwin.models.registry import RECOMMENDED_COLUMN
 from hybridtwin.monitor import chart
 
 MARGIN = 0.5  # the log's statistic must stay under this share of the limit
@@ -43,7 +44,7 @@ def calibrate(measured, calibrated, level: float) -> dict:
 
     picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
     expected = chart.expected_error(calibrated.intervals, picked["recommended_model"], calibrated.region.interval)
-    residual = np.asarray(measured, float) - picked["pred_recommended"].to_numpy(float)
+    residual = np.asarray(measured, float) - picked[RECOMMENDED_COLUMN].to_numpy(float)
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
     z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
     return {"allowance": allowance(z), "limit": chart.LIMIT, "log_parts": int(usable.sum())}
