@@ -161,6 +161,7 @@ def _rows(predictor, batch, plant, kind, start, column, verdict, scale) -> list[
     for method, at in alarms.items():
         row = {"plant": plant, "batch": kind, "method": method, "parts": len(batch), "alarm_at": at}
         row["judged"] = int(watched.judged.sum())
+        row["allowance"] = watched.chart.reference
         row["false_alarm"] = at is not None and (start is None or at < start)
         row["delay"] = np.nan if at is None or start is None or at < start else at - start
         if method == "monitor" and verdict:
@@ -186,44 +187,48 @@ def timing(predictor_models: Path, batch: pd.DataFrame, folder: Path) -> tuple[f
     return total, time.perf_counter() - began
 
 
+def _delays(rows: pd.DataFrame) -> list[str]:
+    cells = []
+    for kind in [f"step {m:g}" for m in STEPS] + ["drift"]:
+        here = rows[rows["batch"] == kind]
+        within = float((here["delay"] <= 150).mean())
+        cells.append(f"{here['delay'].median():.0f} ({within:.0%})" if here["delay"].notna().any() else "none")
+    return cells
+
+
+def _named(table: pd.DataFrame) -> list[str]:
+    monitor = table[(table["method"] == "monitor") & table["batch"].isin(CAUSES)]
+    lines = ["## What changed: named right", "", "| change | batches | alarmed after the start | named right | "
+             "named right, of those alarmed after the start |", "|---|---:|---:|---:|---:|"]  # fmt: skip
+    for kind, rows in [*monitor.groupby("batch"), ("all", monitor)]:
+        after = rows[rows["delay"].notna()]
+        right, right_after = rows["cause_right"].astype(bool), after["cause_right"].astype(bool)
+        share = f"{right_after.mean():.0%}" if len(after) else "-"
+        lines.append(f"| {kind} | {len(rows)} | {len(after)} | {int(right.sum())} ({right.mean():.0%}) | "
+                     f"{int(right_after.sum())} ({share}) |")  # fmt: skip
+    return lines
+
+
 def summary(table: pd.DataFrame, seconds: tuple[float, float]) -> str:
-    lines = ["## False alarms and delays (parts after the change starts; median, and share within 150)", ""]
-    lines += [
-        "| method | in-control batches with an alarm | in support | "
-        + " | ".join([f"step {m:g}x noise" for m in STEPS] + ["drift 1 noise / 2,000 parts", "early alarms (changed)"])
-        + " |"
-    ]
-    lines += ["|---|---:|---:|" + "---:|" * (len(STEPS) + 2)]
+    names = [f"step {m:g}x noise" for m in STEPS] + ["drift 1 noise / 2,000 parts", "early alarms (changed)"]
+    lines = ["## False alarms and delays (parts after the change starts: median, and the share within 150)", ""]
+    lines += ["| method | in-control batches with an alarm | in support | " + " | ".join(names) + " |"]
+    lines += ["|---|---:|---:|" + "---:|" * len(names)]
     for method, rows in table.groupby("method", sort=False):
         control = rows[rows["batch"] == "in control"]
         support = rows[rows["batch"] == "in control, in support"]
-        cells = [
-            f"{int(control['false_alarm'].sum())} of {len(control)}",
-            f"{int(support['false_alarm'].sum())} of {len(support)}",
-        ]
-        for kind in [f"step {m:g}" for m in STEPS] + ["drift"]:
-            here = rows[rows["batch"] == kind]
-            within = float((here["delay"] <= 150).mean())
-            cells.append(f"{here['delay'].median():.0f} ({within:.0%})" if here["delay"].notna().any() else "none")
         changed_rows = rows[~rows["batch"].str.startswith("in control")]
-        cells.append(f"{int(changed_rows['false_alarm'].sum())} of {len(changed_rows)}")
+        cells = [f"{int(control['false_alarm'].sum())} of {len(control)}",
+                 f"{int(support['false_alarm'].sum())} of {len(support)}", *_delays(rows),
+                 f"{int(changed_rows['false_alarm'].sum())} of {len(changed_rows)}"]  # fmt: skip
         lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    monitor = table[(table["method"] == "monitor") & table["batch"].isin(CAUSES)]
-    lines += ["", "## What changed: named right", "", "| change | batches | alarm | named right |"]
-    lines += ["|---|---:|---:|---:|"]
-    for kind, rows in monitor.groupby("batch"):
-        lines.append(
-            f"| {kind} | {len(rows)} | {int(rows['alarm_at'].notna().sum())} | {int(rows['cause_right'].sum())} |"
-        )
-    right = monitor["cause_right"].astype(bool)
-    lines += [
-        f"| all | {len(monitor)} | {int(monitor['alarm_at'].notna().sum())} | {int(right.sum())} "
-        f"({right.mean():.0%}) |",
-        "",
-        f"100,000 parts through `hybridtwin monitor` (read, load the models, predict, chart, write): "
-        f"{seconds[0]:.1f} s wall time; in memory with the models loaded (predict, chart): {seconds[1]:.1f} s",
-    ]
-    return "\n".join(lines)  # fmt: skip
+    allowances = table.groupby("plant")["allowance"].first()
+    lines += ["", *_named(table), "", "Allowance k per plant (calibrated on its log): "
+              + ", ".join(f"{plant} {k:.2f}" for plant, k in allowances.items()) + ".", "",
+              f"100,000 parts through `hybridtwin monitor` (read, load the models, predict, chart, write): "
+              f"{seconds[0]:.1f} s wall time; in memory with the models loaded (predict, chart): "
+              f"{seconds[1]:.1f} s"]  # fmt: skip
+    return "\n".join(lines)
 
 
 def main() -> None:
@@ -232,17 +237,18 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=32)
     parser.add_argument("--log", type=int, default=8000, help="parts the workflow learns from")
     parser.add_argument("--batches", type=int, default=7, help="in-control batches of 10,000 parts per plant")
+    parser.add_argument("--name", default="monitor_bank", help="the results' file name (.csv, .md)")
     args = parser.parse_args()
     rows, timings = [], []
     for index in range(args.plants):
         rows += plant_rows(index, args.seed, args.log, args.batches, timings)
     table = pd.DataFrame(rows)
     OUT.mkdir(parents=True, exist_ok=True)
-    table.to_csv(OUT / "monitor_bank.csv", index=False)
+    table.to_csv(OUT / f"{args.name}.csv", index=False)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT)
     text = (f"# Monitor bank\n\n`python benchmarks/monitor_bank.py {' '.join(sys.argv[1:])}` at commit "
             f"{commit.stdout.strip()}\n\n{summary(table, timings[0] if timings else (np.nan, np.nan))}\n")  # fmt: skip
-    (OUT / "monitor_bank.md").write_text(text)
+    (OUT / f"{args.name}.md").write_text(text)
     print(text)
 
 

@@ -139,7 +139,8 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     not_validated = table["trust"].to_numpy() != VALIDATED
     outside = float(np.mean(not_validated[start:]))
     common = {"shift": shift, "start_part": start + 1, "n_after": int(after.sum()), "outside_support": outside}
-    kind, column, text = _named(found, frame, start, predictor, shift, unit)
+    gap = start - (int(np.flatnonzero(judged[:start])[-1]) + 1 if judged[:start].any() else 0)
+    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap)
     proposed = {}
     # the change comes with settings outside the support: more of the parts since the start lie there than before
     if outside > 0.5 and outside - (float(np.mean(not_validated[:start])) if start >= MIN_BEFORE else 0.0) > 0.25:
@@ -147,8 +148,9 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     return Change(kind, text, column, proposed=proposed, **common)
 
 
-def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float, unit: str):
-    """(kind, column, text) from the causes the diagnosis found."""
+def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float, unit: str, gap: int = 0):
+    """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
+    not judged (the change began during them: no setting or coil can be dated to the start)."""
     known = predictor.extension.extension.columns
     timing = clocks(frame)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
@@ -157,13 +159,7 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
             name = fit.candidate.name
             return KNOWN, name, f"the {name} effect changed by {fit.effect_range:.1f} {unit} over the batch"
     physical = physical if physical and found[0] is physical[0] else []  # time came first: it is time
-    steps = {}
-    for column in frame.columns:
-        values = frame[column]
-        if column not in timing and pd.api.types.is_numeric_dtype(values):
-            step = step_of(values.to_numpy(float), start)
-            if step is not None:
-                steps[column] = step
+    steps = _steps(frame, start, timing) if gap < BOUNDARY else {}
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -175,20 +171,26 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
         return NEW, name, _step_text(name, steps[name])
-    for column in frame.columns:  # or a new coil (lot, supplier) began where it started
+    for column in frame.columns if gap < BOUNDARY else []:  # or a new coil (lot, supplier) began where it started
         at = boundary_of(frame[column], start) if column not in timing else None
         if at is not None:
-            level = frame[column].iloc[at]
-            return (
-                NEW,
-                column,
-                f"a change with {column}: since part {at + 1:,} ({level}) the parts sit {shift:+.1f} {unit} off",
-            )
-    return (
-        UNEXPLAINED,
-        None,
-        f"unexplained: a shift of {shift:+.1f} {unit} from part {start + 1:,} with no logged column that explains it",
-    )
+            text = f"a change with {column}: since part {at + 1:,} ({frame[column].iloc[at]}) the parts sit "
+            return NEW, column, text + f"{shift:+.1f} {unit} off"
+    during = f" (it began during the {gap:,} parts before, which were not judged)" if gap >= BOUNDARY else ""
+    text = f"unexplained: a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
+    return UNEXPLAINED, None, text + " that explains it"
+
+
+def _steps(frame: pd.DataFrame, start: int, timing: set) -> dict:
+    """The numeric columns (not clocks) that step to a new level at ``start``: column -> (index, before, after)."""
+    steps = {}
+    for column in frame.columns:
+        values = frame[column]
+        if column not in timing and pd.api.types.is_numeric_dtype(values):
+            step = step_of(values.to_numpy(float), start)
+            if step is not None:
+                steps[column] = step
+    return steps
 
 
 def _step_text(name: str, step: tuple[int, float, float]) -> str:
