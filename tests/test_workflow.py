@@ -553,7 +553,8 @@ def test_monitor_key_adds_its_rule_and_a_report_page_and_its_table_is_the_comman
     assert planned_rules(workdir, workdir / "config.yaml") == {"monitor", "report_pages", "all"}
     snakemake(workdir, config=workdir / "config.yaml")
     assert (workdir / "results/report/monitor.html").exists() and (workdir / "results/figures/monitor.png").exists()
-    command = ["hybridtwin", "monitor", str(workdir / "batch.csv"), "--models", str(workdir / "results/models")]
+    command = [sys.executable, "-m", "hybridtwin.cli", "monitor", str(workdir / "batch.csv")]
+    command += ["--models", str(workdir / "results/models")]
     result = run_command([*command, "-o", str(tmp_path / "cli.csv")], timeout=120, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert (workdir / "results/monitor/monitor.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
