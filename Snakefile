@@ -51,6 +51,7 @@ include: "workflow/rules/diagnosis.smk"
 include: "workflow/rules/peers.smk"
 include: "workflow/rules/predictor.smk"
 include: "workflow/rules/enrichment.smk"
+include: "workflow/rules/monitor.smk"
 include: "workflow/rules/report.smk"
 
 

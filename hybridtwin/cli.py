@@ -3,6 +3,7 @@
     hybridtwin predict NEW.csv --models results/models -o OUT.csv        # a table of settings
     hybridtwin predict --models results/models --set die_temp_c=60       # typical production, one input changed
     hybridtwin sweep --models results/models --vary die_temp_c=20:110:46 -o sweep.csv --plot sweep.png
+    hybridtwin monitor BATCH.csv --models results/models -o OUT.csv           # new production, checked
 
 Every answer carries its trust verdict (validated, calibrated, extrapolation) and the reason in words. A CSV is
 read with the run's conventions (csv.sep, csv.decimal, column names) and the same checks; bad input ends with
@@ -37,6 +38,10 @@ def _common(command: argparse.ArgumentParser) -> None:
         "--all-models", action="store_true", help="add every model's prediction and the regions' bookkeeping"
     )
     command.add_argument("--jobs", type=int, help="threads for the peers (default: every core this process may use)")
+    _csv_flags(command)
+
+
+def _csv_flags(command: argparse.ArgumentParser) -> None:
     command.add_argument(
         "--sep", choices=list(SEPARATOR_NAMES), help="the CSV files' separator, if not the run's csv.sep"
     )
@@ -56,6 +61,16 @@ def parser() -> argparse.ArgumentParser:
     sweep.add_argument("--vary", required=True, metavar="NAME=LOW:HIGH:N", help="the input, its range and N values")
     sweep.add_argument("--plot", metavar="FILE.png", help="the figure to write")
     _common(sweep)
+    monitor = commands.add_parser(
+        "monitor", help="check new production against the models: an alarm when it changed, since when and why"
+    )
+    monitor.add_argument(
+        "batch", help="CSV of new production in the log's format (inputs, measured target), in time order"
+    )
+    monitor.add_argument("--models", default=DEFAULT_MODELS, help=f"a run's models folder (default: {DEFAULT_MODELS})")
+    monitor.add_argument("-o", "--output", help="CSV to write, with monitor.md beside it (default: the summary only)")
+    monitor.add_argument("--plot", metavar="FILE.png", help="the figure to write (residual, statistic, alarm)")
+    _csv_flags(monitor)
     return top
 
 
@@ -96,6 +111,8 @@ def run(args) -> None:
 
     predictor = Predictor.load(args.models)
     fmt = _format(args, predictor)
+    if args.command == "monitor":
+        return _monitor(args, predictor, fmt)
     if args.command == "sweep":
         from hybridtwin.answers import whatif
 
@@ -119,6 +136,24 @@ def _plot(predictor, answers, name: str, path: str) -> None:
 
     figure = plots.sweep(answers, name, predictor.doe_range[name], predictor.spec["target"], predictor.spec["unit"])
     files.save_figure(figure, path)
+
+
+def _monitor(args, predictor, fmt: CsvFormat) -> None:
+    from pathlib import Path
+
+    from hybridtwin.io import files
+    from hybridtwin.monitor import watch, words
+
+    watched = watch.watch(predictor, watch.load_batch(args.batch, predictor, fmt))
+    if args.output:
+        predictor.write(watched.table, args.output, fmt)
+        with files.atomic_path(Path(args.output).with_name("monitor.md")) as temporary:
+            temporary.write_text(words.markdown(watched, Path(args.batch).name))
+    if args.plot:
+        from hybridtwin.monitor.figure import monitor
+
+        files.save_figure(monitor(watched, f"Monitor: {Path(args.batch).name}"), args.plot)
+    print(words.summary(watched))
 
 
 def main(argv=None) -> int:

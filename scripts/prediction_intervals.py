@@ -9,6 +9,7 @@ from hybridtwin.io import files
 from hybridtwin.io.files import in_support, read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
 from hybridtwin.models import peers
+from hybridtwin.monitor import calibration as monitor
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate
 from hybridtwin.report import plots
@@ -32,9 +33,9 @@ def main(snakemake):
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     reach = pipeline.production_reach(production, gate, spec, p.settings["blocks"])
     files.write_json(reach.to_dict(), snakemake.output.reach)
-    files.write_json(
-        predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units), snakemake.output.manifest
-    )
+    manifest = predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units)
+    manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level)  # the monitor's allowance
+    files.write_json(manifest, snakemake.output.manifest)
     matched = read_checked(snakemake.input.matched)
     peer_models = {name: peers.load_peer(name, files.read_json(snakemake.input[f"peer_{name}"])) for name in p.peers}
     at_matched = pipeline.matched_predictions(

@@ -542,6 +542,25 @@ def test_whatif_key_adds_one_rule_and_its_answers_are_the_clis(run_dir, tmp_path
     assert (workdir / "results/predictions/whatif.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
 
 
+def test_monitor_key_adds_its_rule_and_a_report_page_and_its_table_is_the_commands(run_dir, tmp_path):
+    workdir = tmp_path / "monitor"
+    shutil.copytree(run_dir, workdir, symlinks=True)
+    batch = pd.read_csv(run_dir / "results/demo/production.csv").iloc[-300:]
+    batch.to_csv(workdir / "batch.csv", index=False)
+    config = yaml.safe_load(open(TEST_CONFIG))
+    config["monitor"] = "batch.csv"
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config))
+    assert planned_rules(workdir, workdir / "config.yaml") == {"monitor", "report_pages", "all"}
+    snakemake(workdir, config=workdir / "config.yaml")
+    assert (workdir / "results/report/monitor.html").exists() and (workdir / "results/figures/monitor.png").exists()
+    command = [sys.executable, "-m", "hybridtwin.cli", "monitor", str(workdir / "batch.csv")]
+    command += ["--models", str(workdir / "results/models")]
+    result = run_command([*command, "-o", str(tmp_path / "cli.csv")], timeout=120, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (workdir / "results/monitor/monitor.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    assert (workdir / "results/monitor/monitor.md").read_text() == (tmp_path / "monitor.md").read_text()
+
+
 def test_results_dir_puts_everything_a_run_writes_under_it(tmp_path):
     config = yaml.safe_load(open(TEST_CONFIG))
     config["results_dir"] = "runs/plant_a"

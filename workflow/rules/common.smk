@@ -133,6 +133,7 @@ def final_outputs():
             SUMMARY,
         ]
         + ([f"{RESULTS}/predictions/whatif.csv"] if config.get("whatif") else [])
+        + ([f"{RESULTS}/monitor/monitor.csv", f"{FIGURES}/monitor.png"] if config.get("monitor") else [])
     )
 
 

@@ -47,6 +47,8 @@ REPORT_PAGES = {
         "8. Next simulations",
     ),
 }
+if config.get("monitor"):
+    REPORT_PAGES["monitor"] = (f"{RESULTS}/monitor/monitor.md", "Monitor: the new batch", "monitor_md", "9. Monitor")
 
 
 rule report_summary:

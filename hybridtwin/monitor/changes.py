@@ -1,0 +1,198 @@
+"""What changed: after an alarm, the residual of the batch's parts goes through the diagnosis, the parts after the
+estimated start against those before it.
+
+The diagnosis (:func:`hybridtwin.diagnosis.diagnose`, its public entry point, with its own significance rules)
+ranks what explains the residual over the judged parts. The answer is one of three:
+
+* a **known cause that moved**: a column of the models' extension (a cause the workflow's diagnosis named) among
+  the causes found: "the die_temp_c effect changed by 3.0 mm";
+* a **new candidate**: another logged column explains it, or a setting steps to a level it never had before at
+  the part the change starts (a step in time there is the same step: the logged setting is the physical cause):
+  "a step in shim21_mm at part 3,012";
+* **unexplained**: nothing, or only time (a timestamp, or a counter that only grows), explains it: "a shift of
+  +1.5 mm from part 3,012 with no logged column that explains it".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from hybridtwin.answers.trust import VALIDATED
+
+MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
+MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
+# a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
+SHARE_MARGIN = 0.02
+BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
+LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
+WINDOW = 300  # parts either side of the start a setting's step is looked for in
+STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
+KNOWN, NEW, UNEXPLAINED = "known cause", "new candidate", "unexplained"
+
+
+@dataclass(frozen=True)
+class Change:
+    kind: str  # KNOWN, NEW or UNEXPLAINED
+    text: str  # the answer in words
+    column: str | None
+    shift: float  # mean residual after the start less before it
+    start_part: int  # from 1
+    n_after: int
+    outside_support: float  # share of the parts since the start outside the support
+    proposed: dict = field(default_factory=dict)  # a setting to simulate (the changed parts' median), if outside
+
+
+def _diagnosis_frame(table: pd.DataFrame, added, target: str) -> pd.DataFrame:
+    return table[[c for c in table.columns if c not in set(added) | {target}]]
+
+
+def clocks(frame: pd.DataFrame) -> set[str]:
+    """Columns that only tell time: numbers that never go down over the batch (a stroke counter) and timestamps."""
+    from hybridtwin.diagnosis.causes import parse_timestamps
+
+    found = set()
+    for column in frame.columns:
+        values = frame[column]
+        if pd.api.types.is_numeric_dtype(values):
+            numbers = values.to_numpy(float)
+            if len(numbers) > 2 and np.all(np.diff(numbers) >= 0) and numbers[-1] > numbers[0]:
+                found.add(column)
+        elif parse_timestamps(values.iloc[:200]) is not None:
+            found.add(column)
+    return found
+
+
+def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, float, float] | None:
+    """A step of a numeric column to a level it never had in the ``window`` parts before ``start``: (the index
+    it steps at, the level before, the level after), or None."""
+    before, after = values[max(0, start - window) : start], values[start : start + window]
+    if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
+        return None
+    low, high = np.quantile(before, [0.005, 0.995])
+    if np.mean((after < low) | (after > high)) < 0.9:
+        return None
+    first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
+    around = values[first : start + LOCAL]
+    n = len(around)
+    total, squares = np.cumsum(around), np.cumsum(around**2)
+    split = np.arange(1, n)
+    left = squares[:-1] - total[:-1] ** 2 / split
+    right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
+    # a step, not a trend (a die warming up): two levels fit far better than a straight line
+    line = np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))
+    if np.min(left + right) > 0.25 * np.sum((around - line) ** 2):
+        return None
+    at = first + int(split[np.argmin(left + right)])
+    return at, float(np.median(before)), float(np.median(after))
+
+
+def step_share(residual: np.ndarray, after: np.ndarray) -> float:
+    """The share of the residual's variance a step at the start explains (a level before, one after): what time
+    alone explains."""
+    total = np.sum((residual - residual.mean()) ** 2)
+    if total <= 0 or after.all() or not after.any():
+        return 0.0
+    left = np.sum((residual[~after] - residual[~after].mean()) ** 2)
+    return float(1.0 - (left + np.sum((residual[after] - residual[after].mean()) ** 2)) / total)
+
+
+def boundary_of(values: pd.Series, start: int, tolerance: int = BOUNDARY) -> int | None:
+    """The part nearest ``start`` (within ``tolerance``) at which a text column (a coil id, a lot) takes a new
+    value, or None; a column that changes at more than one part in ten is no such column."""
+    if pd.api.types.is_numeric_dtype(values) or len(values) < 2:
+        return None
+    text = values.astype(str).to_numpy()
+    changes = np.flatnonzero(text[1:] != text[:-1]) + 1
+    if len(changes) > 0.1 * len(text):
+        return None
+    near = changes[np.abs(changes - start) <= tolerance]
+    return int(near[np.argmin(np.abs(near - start))]) if len(near) else None
+
+
+def _found_causes(frame: pd.DataFrame, residual: np.ndarray, inputs, unit: str, seed: int) -> list:
+    from hybridtwin.diagnosis import Settings, diagnose
+
+    n = len(residual)
+    settings = Settings(seed=seed, unit=unit, interactions=False, max_causes=2, max_rows=MAX_ROWS, n_blocks=50)
+    if n < 4 * settings.n_blocks:
+        settings = Settings(seed=seed, unit=unit, interactions=False, max_causes=2, max_rows=MAX_ROWS, n_blocks=10)
+    return list(diagnose(frame, residual, inputs, (), settings).selected)
+
+
+def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0, added=()) -> "Change":
+    """What changed from the chart's estimated start on (``table``: the batch with the monitor's columns
+    ``added``; ``residual``: measured less predicted per part; ``result``: the chart, in alarm)."""
+    residual = np.asarray(residual, float)
+    judged = ~np.isnan(result.z)
+    start = int(result.start_at)
+    after, before = judged & (np.arange(len(residual)) >= start), judged & (np.arange(len(residual)) < start)
+    reference = float(residual[before].mean()) if before.sum() >= MIN_BEFORE else 0.0
+    shift = float(residual[after].mean()) - reference
+    unit, target = predictor.spec["unit"], predictor.spec["target"]
+    frame = _diagnosis_frame(table, added, target)
+    rows = np.flatnonzero(judged & (np.arange(len(residual)) >= start - (WINDOW if before.any() else 0)))
+    found = _found_causes(frame.iloc[rows].reset_index(drop=True), residual[rows], predictor.inputs, unit, seed)
+    found = [fit for fit in found if fit.explained_share > step_share(residual[rows], rows >= start) + SHARE_MARGIN]
+    not_validated = table["trust"].to_numpy() != VALIDATED
+    outside = float(np.mean(not_validated[start:]))
+    common = {"shift": shift, "start_part": start + 1, "n_after": int(after.sum()), "outside_support": outside}
+    gap = start - (int(np.flatnonzero(judged[:start])[-1]) + 1 if judged[:start].any() else 0)
+    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap)
+    proposed = {}
+    # the change comes with settings outside the support: more of the parts since the start lie there than before
+    if outside > 0.5 and outside - (float(np.mean(not_validated[:start])) if start >= MIN_BEFORE else 0.0) > 0.25:
+        proposed = {name: float(table[name].iloc[start:].median()) for name in predictor.inputs}
+    return Change(kind, text, column, proposed=proposed, **common)
+
+
+def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float, unit: str, gap: int = 0):
+    """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
+    not judged (the change began during them: no setting or coil can be dated to the start)."""
+    known = predictor.extension.extension.columns
+    timing = clocks(frame)
+    physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
+    for fit in found:  # a known cause, a wear drift along a counter among them (a trend: not a step in time)
+        if set(fit.candidate.columns) & known and (fit in physical or fit.form.name not in STEPS):
+            name = fit.candidate.name
+            return KNOWN, name, f"the {name} effect changed by {fit.effect_range:.1f} {unit} over the batch"
+    physical = physical if physical and found[0] is physical[0] else []  # time came first: it is time
+    steps = _steps(frame, start, timing) if gap < BOUNDARY else {}
+    if physical:
+        fit = physical[0]
+        name = fit.candidate.name
+        if name in steps:
+            return NEW, name, _step_text(name, steps[name])
+        if fit.candidate.kind == "group":
+            return NEW, name, f"a change with {name}: the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
+        return NEW, name, f"a new effect of {name}, {fit.effect_range:.1f} {unit} over its range in the batch"
+    if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
+        name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
+        return NEW, name, _step_text(name, steps[name])
+    for column in frame.columns if gap < BOUNDARY else []:  # or a new coil (lot, supplier) began where it started
+        at = boundary_of(frame[column], start) if column not in timing else None
+        if at is not None:
+            text = f"a change with {column}: since part {at + 1:,} ({frame[column].iloc[at]}) the parts sit "
+            return NEW, column, text + f"{shift:+.1f} {unit} off"
+    during = f" (it began during the {gap:,} parts before, which were not judged)" if gap >= BOUNDARY else ""
+    text = f"unexplained: a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
+    return UNEXPLAINED, None, text + " that explains it"
+
+
+def _steps(frame: pd.DataFrame, start: int, timing: set) -> dict:
+    """The numeric columns (not clocks) that step to a new level at ``start``: column -> (index, before, after)."""
+    steps = {}
+    for column in frame.columns:
+        values = frame[column]
+        if column not in timing and pd.api.types.is_numeric_dtype(values):
+            step = step_of(values.to_numpy(float), start)
+            if step is not None:
+                steps[column] = step
+    return steps
+
+
+def _step_text(name: str, step: tuple[int, float, float]) -> str:
+    at, low, high = step
+    return f"a step in {name} at part {at + 1:,} (from {low:.4g} to {high:.4g})"

@@ -1,0 +1,101 @@
+"""The monitoring statistic: a two-sided CUSUM of the residual, in units of the error each part's region expects.
+
+Each measured part's residual (measured - recommended prediction) is divided by the in-control error of its
+region: the root mean square of the recommended model's calibration errors there (in support, and out of support
+by distance to the DoE, :mod:`hybridtwin.answers.regions`). A batch of far settings thus weighs each part by
+the error the models already expect there, and is no alarm by itself. A part whose trust verdict is
+*extrapolation* (a setting unlike every logged part: no interval) has no in-control error to compare with; it is
+not judged and leaves the statistic as it was.
+
+The standardized residual ``z`` (clipped at :data:`CLIP`, so that one wild part cannot raise an alarm alone) feeds
+the tabular CUSUM (Page 1954) on both sides: ``S+ = max(0, S+ + z - k)``, ``S- = max(0, S- - z - k)``. An
+alarm is raised at the first part where either exceeds the limit ``h``; the change is estimated to start right
+after the alarming side's last zero. ``k`` is an allowance: a settled offset smaller than ``k`` expected errors
+per part is what the models' own error at a new campaign of settings can be, and never adds up; above it, the
+excess adds up part after part. ``k`` is at least :data:`REFERENCE`, more where the production log itself needed
+more to stay in control (:mod:`.calibration`). ``h`` (:data:`LIMIT`) then sets how much excess makes an alarm:
+with ``k = 1`` an offset of 1.5 expected errors alarms after about 20 / 0.5 = 40 parts; on independent
+in-control errors the average run to a false alarm is beyond 10^15 parts (Siegmund's approximation), so an
+in-control false alarm comes from the models' own error at some settings, not from the noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+REFERENCE = 1.0  # k, in expected errors
+LIMIT = 20.0  # h, in expected errors
+CLIP = 4.0  # largest |z| one part contributes
+
+
+def expected_error(intervals, models, regions) -> np.ndarray:
+    """Per row, the in-control error of its recommended model in its interval region: the root mean square of
+    the calibration errors (NaN where the region has none)."""
+    models, regions = np.asarray(models, object), np.asarray(regions, object)
+    out = np.full(len(models), np.nan)
+    for model, region in set(zip(models.tolist(), regions.tolist())):
+        errors = np.asarray(intervals.calibration.get(model, {}).get(region, []), float)
+        if len(errors):
+            out[(models == model) & (regions == region)] = float(np.sqrt(np.mean(errors**2)))
+    return out
+
+
+def one_side(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The one-sided CUSUM ``S_t = max(0, S_{t-1} + step_t)`` (``S_0 = 0``) and, per part, the index of the part
+    after its last zero (where the current excursion began).
+
+    Lindley's recursion in closed form: with ``C`` the running sum, ``S_t = C_t - min(0, min_{s<=t} C_s)``.
+    """
+    total = np.cumsum(steps)
+    floor = np.minimum.accumulate(np.minimum(total, 0.0))
+    statistic = total - floor
+    # the excursion begins after the last part at which the running sum reached its floor (before part 0: -1)
+    at_floor = np.where(total <= floor, np.arange(len(steps)), -1)
+    return statistic, np.maximum.accumulate(at_floor) + 1
+
+
+@dataclass(frozen=True)
+class Chart:
+    """The chart over a batch: per part the standardized residual, both sides' statistic, and the verdict."""
+
+    z: np.ndarray  # NaN for a part not judged
+    up: np.ndarray
+    down: np.ndarray
+    limit: float
+    reference: float
+    alarm_at: int | None  # index of the first part in alarm
+    start_at: int | None  # index of the part the change is estimated to start at
+    direction: int  # +1: the plant measures more than the models expect; -1: less; 0: no alarm
+
+    @property
+    def statistic(self) -> np.ndarray:
+        return np.maximum(self.up, self.down)
+
+    @property
+    def alarm(self) -> np.ndarray:
+        flags = np.zeros(len(self.z), bool)
+        if self.alarm_at is not None:
+            flags[self.alarm_at :] = True
+        return flags
+
+
+def cusum(z, reference: float = REFERENCE, limit: float = LIMIT, clip: float = CLIP) -> Chart:
+    """The two-sided CUSUM of ``z`` (NaN: a part not judged, which changes nothing)."""
+    z = np.asarray(z, float)
+    judged = np.clip(np.nan_to_num(z, nan=0.0), -clip, clip)
+    allowance = np.where(np.isnan(z), 0.0, reference)
+    up, up_start = one_side(judged - allowance)
+    down, down_start = one_side(-judged - allowance)
+    over = np.flatnonzero(np.maximum(up, down) > limit)
+    if not len(over):
+        return Chart(z, up, down, limit, reference, None, None, 0)
+    at = int(over[0])
+    direction = 1 if up[at] > limit else -1
+    start = int((up_start if direction > 0 else down_start)[at])
+    # a part not judged cannot start a change: the first judged part of the excursion
+    judged_from = np.flatnonzero(~np.isnan(z[start : at + 1]))
+    return Chart(
+        z, up, down, limit, reference, at, start + int(judged_from[0]) if len(judged_from) else start, direction
+    )

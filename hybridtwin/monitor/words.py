@@ -1,0 +1,100 @@
+"""The monitor's answer in words: the summary the command prints, monitor.md, and what to do next."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hybridtwin.monitor.changes import UNEXPLAINED
+
+# what a rerun after appending the batch to the production log (config data.production) runs again: every rule
+# that reads the log; the surrogate and its cross-validation read the DoE only and stay
+RERUN = (
+    "validate_inputs (production), support_gate, residuals, the residual model's tuning, cross-validation and "
+    "fit, diagnose, model_extension, the peers, production_predictions, prediction_intervals and the report; "
+    "surrogate_cv and surrogate_fit (the DoE only) do not rerun"
+)
+
+
+def headline(watched) -> str:
+    chart, n = watched.chart, len(watched.table)
+    judged = int(watched.judged.sum())
+    if chart.alarm_at is None:
+        return (
+            f"in control: the {n:,} parts behave as the models expect (statistic at most "
+            f"{float(chart.statistic.max()) if n else 0.0:.1f}, limit {chart.limit:g}; {judged:,} parts judged)"
+        )
+    side = "more" if chart.direction > 0 else "less"
+    return (
+        f"ALARM at part {chart.alarm_at + 1:,}: the plant measures {side} than the models expect, since about "
+        f"part {chart.start_at + 1:,} (statistic above its limit {chart.limit:g}; {judged:,} of {n:,} parts judged)"
+    )
+
+
+def unjudged(watched) -> str:
+    skipped = len(watched.table) - int(watched.judged.sum())
+    if not skipped:
+        return ""
+    return (
+        f"{skipped:,} parts were not judged: their settings are unlike every logged part (trust 'extrapolation'), "
+        "so the models expect no error there"
+    )
+
+
+def next_steps(watched) -> list[str]:
+    """What to do after an alarm: run the simulations the change needs, and append the batch and rerun."""
+    change = watched.change
+    if watched.chart.alarm_at is None or change is None:
+        return []
+    steps = []
+    if change.proposed:
+        shown = ", ".join(f"{name}={value:.4g}" for name, value in change.proposed.items())
+        steps.append(
+            f"run the proposed simulations: {change.outside_support:.0%} of the parts since part "
+            f"{change.start_part:,} lie outside the support; simulate their typical setting ({shown}), add it "
+            "to the DoE, and the rerun proposes more (results/enrichment/proposed_simulations.csv)"
+        )
+    what = "the offset" if change.kind == UNEXPLAINED else "the change"
+    steps.append(
+        f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
+        f"models learn {what}: the rules that rerun are {RERUN}"
+    )
+    return steps
+
+
+def summary(watched) -> str:
+    """What the command prints: the verdict, what changed, what to do."""
+    lines = [headline(watched)]
+    if watched.change is not None:
+        change = watched.change
+        lines.append(
+            f"what changed ({change.kind}): {change.text}; the residual moved by {change.shift:+.2f} "
+            f"{watched.unit} over the {change.n_after:,} parts judged since part {change.start_part:,}"
+        )
+    lines += [note for note in [unjudged(watched)] if note]
+    lines += [f"next: {step}" for step in next_steps(watched)]
+    return "\n".join(lines)
+
+
+def markdown(watched, batch_name: str) -> str:
+    """monitor.md: the same, for the report and beside the output table."""
+    table = watched.table
+    judged = watched.judged
+    residual = table["residual"].to_numpy(float)
+    rows = [
+        "| what | value |",
+        "|---|---|",
+        f"| parts | {len(table):,} |",
+        f"| parts judged | {int(judged.sum()):,} |",
+        f"| mean residual of the judged parts | {np.mean(residual[judged]) if judged.any() else float('nan'):+.2f} "
+        f"{watched.unit} |",
+        f"| statistic: allowance k, limit h | {watched.chart.reference:g}, {watched.chart.limit:g} expected errors |",
+    ]
+    text = [f"# Monitor: {batch_name}", "", headline(watched) + ".", ""]
+    if watched.change is not None:
+        text += [f"**What changed** ({watched.change.kind}): {watched.change.text}.", ""]
+    if unjudged(watched):
+        text += [unjudged(watched) + ".", ""]
+    steps = next_steps(watched)
+    if steps:
+        text += ["**Next**:", "", *[f"- {step}." for step in steps], ""]
+    return "\n".join([*text, *rows, ""])
