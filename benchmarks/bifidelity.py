@@ -40,11 +40,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
+from plain_baselines import PLAIN_GP, PLAIN_MFK, plain_baselines
 from scipy.stats import qmc
 
 from hybridtwin import pipeline
 from hybridtwin.answers.intervals import recommended_prediction
-from hybridtwin.crossval import period_folds, training_subset
 from hybridtwin.io import files
 from hybridtwin.models import registry
 
@@ -53,7 +53,6 @@ OUT = ROOT / "benchmarks" / "results"
 FUNCTIONS = ("forrester", "bohachevsky", "booth", "branin", "himmelblau", "six_hump_camelback")
 N_PARTS, N_CAMPAIGNS, NOISE_SHARE = 20_000, 12, 0.02
 TARGET = "y"
-PLAIN_MFK, PLAIN_GP = "plain_mfk", "plain_gp_discrepancy"
 
 
 # ---------------------------------------------------------------- the plant
@@ -92,113 +91,6 @@ def plant(function: str, seed: int) -> dict:
         simulated=f.low(X[near]), measured=production[TARGET].to_numpy()[near]
     )
     return {"doe": doe, "production": production, "truth": truth, "matched": matched, "inputs": inputs, "noise": noise}
-
-
-# ---------------------------------------------------------------- the plain baselines
-
-
-class PlainMFK:
-    """SMT's MFK as its documentation shows it: ``theta0=d * [1.0]`` and the defaults (squared exponential, TNC,
-    10 starts), noise estimated (the parts are noisy); inputs scaled to the DoE's box."""
-
-    def __init__(self, n_high: int = 600, seed: int = 0):
-        self.n_high, self.seed = n_high, seed
-
-    def _scale(self, X):
-        return (np.asarray(X, float) - self.low_) / self.width_
-
-    def _model(self, theta=None):
-        from smt.applications import MFK
-
-        from hybridtwin.models.cokriging import _mfk_class
-
-        options = {"theta0": self.d_ * [1.0], "eval_noise": True, "print_global": False}
-        return MFK(**options) if theta is None else _mfk_class()[1](theta, **options)
-
-    def _train(self, model, X, y):
-        model.set_training_values(self._scale(self.doe_x_), self.doe_y_[:, None], name=0)
-        model.set_training_values(self._scale(X), np.asarray(y, float)[:, None])
-        model.train()
-        return model
-
-    def fit(self, X, y, doe_x, doe_y):
-        self.doe_x_, self.doe_y_ = np.asarray(doe_x, float), np.asarray(doe_y, float)
-        self.low_, self.width_ = self.doe_x_.min(axis=0), np.ptp(self.doe_x_, axis=0)
-        self.d_ = self.doe_x_.shape[1]
-        self.rows_ = training_subset(len(y), self.n_high, self.seed)
-        self.X_, self.y_ = np.asarray(X, float)[self.rows_], np.asarray(y, float)[self.rows_]
-        self.model_ = self._train(self._model(), self.X_, self.y_)
-        self.theta_ = [np.append(self.model_.optimal_theta[k], self.model_.optimal_noise_all[k]) for k in range(2)]
-        return self
-
-    def predict(self, X):
-        return self.model_.predict_values(self._scale(X)).ravel()
-
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        out = np.empty(len(self.y_))
-        for train, test in period_folds(len(self.y_), n_folds):
-            model = self._train(self._model(self.theta_), self.X_[train], self.y_[train])
-            out[test] = model.predict_values(self._scale(self.X_[test])).ravel()
-        return out
-
-
-class PlainGPDiscrepancy:
-    """scikit-learn's GP of the residual (measured - surrogate): Matern 5/2 with a length scale per input plus white
-    noise, the target normalized; hyperparameters on ``n_hyper`` parts, then refitted on ``n_fit`` with them."""
-
-    def __init__(self, n_hyper: int = 300, n_fit: int = 2000, seed: int = 0):
-        self.n_hyper, self.n_fit, self.seed = n_hyper, n_fit, seed
-
-    def fit(self, X, residual, doe_x, doe_y=None):
-        from sklearn.gaussian_process import GaussianProcessRegressor
-        from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
-
-        doe_x = np.asarray(doe_x, float)
-        self.low_, self.width_ = doe_x.min(axis=0), np.ptp(doe_x, axis=0)
-        X, residual = (np.asarray(X, float) - self.low_) / self.width_, np.asarray(residual, float)
-        self.rows_ = training_subset(len(residual), self.n_fit, self.seed + 1)
-        hyper = self.rows_[training_subset(len(self.rows_), self.n_hyper, self.seed)]
-        kernel = ConstantKernel() * Matern(length_scale=np.ones(X.shape[1]), nu=2.5) + WhiteKernel()
-        tuned = GaussianProcessRegressor(kernel, normalize_y=True, random_state=self.seed).fit(
-            X[hyper], residual[hyper]
-        )
-        self.kernel_ = tuned.kernel_
-        self.X_, self.y_ = X[self.rows_], residual[self.rows_]
-        self.gp_ = self._fixed(self.X_, self.y_)
-        return self
-
-    def _fixed(self, X, y):
-        from sklearn.gaussian_process import GaussianProcessRegressor
-
-        return GaussianProcessRegressor(self.kernel_, normalize_y=True, optimizer=None).fit(X, y)
-
-    def predict(self, X):
-        return self.gp_.predict((np.asarray(X, float) - self.low_) / self.width_)
-
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        out = np.empty(len(self.y_))
-        for train, test in period_folds(len(self.y_), n_folds):
-            out[test] = self._fixed(self.X_[train], self.y_[train]).predict(self.X_[test])
-        return out
-
-
-def plain_baselines(case: dict, residuals: pd.DataFrame, seed: int, n_folds: int) -> dict[str, np.ndarray]:
-    """Both plain baselines' honest predictions of every part: out of period on the parts they trained on."""
-    inside = np.flatnonzero(residuals["in_support"].to_numpy(bool))
-    X = case["production"][case["inputs"]].to_numpy(float)
-    surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
-    doe_x, doe_y = case["doe"][case["inputs"]], case["doe"][TARGET]
-    out = {}
-    for name, model, learnt, offset in (
-        (PLAIN_MFK, PlainMFK(seed=seed), residuals["measured"].to_numpy(float), 0.0),
-        (PLAIN_GP, PlainGPDiscrepancy(seed=seed), residuals["residual_approx"].to_numpy(float), surrogate),
-    ):
-        model.fit(X[inside], learnt[inside], doe_x, doe_y)
-        honest = model.predict(X) + offset
-        trained = inside[model.rows_]
-        honest[trained] = model.out_of_fold(n_folds) + np.broadcast_to(offset, len(X))[trained]
-        out[name] = honest
-    return out
 
 
 # ---------------------------------------------------------------- the workflow on a plant
@@ -257,7 +149,7 @@ def scored(case: dict, predictions, residuals, run: dict, seed: int) -> dict:
     honest = dict(calibrated.honest)
     picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
     honest[registry.RECOMMENDED] = picked[registry.RECOMMENDED_COLUMN].to_numpy(float)
-    honest.update(plain_baselines(case, residuals, seed, spec.folds))
+    honest.update(plain_baselines(case["doe"], case["production"], residuals, case["inputs"], TARGET, seed, spec.folds))
     inside = residuals["in_support"].to_numpy(bool)
     compared = [m for m in (*MODELS, PLAIN_MFK, PLAIN_GP, registry.RECOMMENDED) if m in honest]
     test = ~calibrated.calibration
@@ -267,6 +159,8 @@ def scored(case: dict, predictions, residuals, run: dict, seed: int) -> dict:
         for side, mask in (("in", common & inside), ("out", common & ~inside)):
             error = honest[model][mask] - case["truth"][mask]
             row[f"{model}_{side}"] = float(np.sqrt(np.mean(error**2)) / case["noise"]) if mask.any() else np.nan
+    holds = calibrated.table.drop_duplicates("region").set_index("region")["choice_holds"].dropna()
+    row["choices_held"], row["choices"] = int(holds.sum()), len(holds)
     row["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
     return row
 
