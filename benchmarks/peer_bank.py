@@ -1,9 +1,12 @@
-"""Benchmark: the recommended model against the established peers on many plants (issue 12's goals).
+"""Benchmark: the recommended model against the established peers on many plants (issues 12 and 33's goals).
 
 On each plant (the other plant families, and the demo with its hidden-effect kinds) the paper's
 hybrid, the extended hybrid, the GP discrepancy (Kennedy-O'Hagan), AR1 co-kriging (SMT MFK), their
 stack and the recommended model are fitted as the workflow fits them and scored against the
-noise-free truth on held-out parts (``scenarios.compare_models``). Usage:
+noise-free truth on held-out parts (``scenarios.compare_models``), beside a plain SMT MFK and a plain
+GP discrepancy fitted on the same information (``plain_baselines.py``). "Best" is the best of the
+peers and the plain baselines; a region's choice holds where the recommended model is also the best
+on its test blocks. Usage:
 
     python benchmarks/peer_bank.py --per-family 3 --seed 1
 """
@@ -16,10 +19,22 @@ import warnings
 from pathlib import Path
 
 import pandas as pd
+from plain_baselines import PLAIN_GP, PLAIN_MFK, plain_baselines
 
 from hybridtwin.demo import families, scenarios
 from hybridtwin.io import config
 from hybridtwin.models.registry import PEER_NAMES as PEERS
+
+BASELINES = (*PEERS, PLAIN_MFK, PLAIN_GP)
+
+
+def baselines(case, seed: int):
+    """The plain baselines of a plant, on the harness run's residual table (the workflow's surrogate and gate)."""
+
+    def fitted(run):
+        return plain_baselines(case.doe, case.production, run.residuals, case.inputs, case.target, seed)
+
+    return fitted
 
 
 def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None):
@@ -33,9 +48,10 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_setti
     for generator, kind, draw in plants:
         start = time.perf_counter()
         case = families.draw_plant(kind, draw) if generator == "families" else scenarios.demo_case(kind, draw)
-        scored = scenarios.compare_models(case, draw, jobs, peer_settings=peer_settings)
-        best_peer_out = min(scored[f"{p}_out"] for p in PEERS)
-        best_peer_in = min(scored[f"{p}_in"] for p in PEERS)
+        scored = scenarios.compare_models(case, draw, jobs, peer_settings=peer_settings, others=baselines(case, draw))
+        best_peer_out = min(scored[f"{p}_out"] for p in BASELINES)
+        best_peer_in = min(scored[f"{p}_in"] for p in BASELINES)
+        holds = [v for k, v in scored.items() if k.startswith("holds_")]
         row = {
             "generator": generator,
             "kind": kind,
@@ -43,6 +59,8 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_setti
             **scored,
             "ratio_out": scored["recommended_out"] / best_peer_out,
             "ratio_in": scored["recommended_in"] / best_peer_in,
+            "choices_held": sum(holds),
+            "choices": len(holds),
             "seconds": time.perf_counter() - start,
         }
         rows.append(row)
@@ -56,25 +74,28 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_setti
 
 
 def summary(table: pd.DataFrame) -> str:
-    models = scenarios.COMPARED_MODELS
+    models = (*scenarios.COMPARED_MODELS[:-1], PLAIN_MFK, PLAIN_GP, scenarios.COMPARED_MODELS[-1])
     lines = [
         "| plants | n | "
         + " | ".join(models)
-        + " | recommended / best peer (median, worst) | in support: worst ratio |",
-        "|---|---:|" + "---:|" * len(models) + "---|---:|",
+        + " | recommended / best (median, worst) | in support: worst ratio | choices held |",
+        "|---|---:|" + "---:|" * len(models) + "---|---:|---:|",
     ]
     for (generator, kind), part in table.groupby(["generator", "kind"], sort=False):
         medians = " | ".join(f"{part[f'{m}_out'].median():.2f}" for m in models)
         lines.append(
             f"| {generator} {kind} | {len(part)} | {medians} | {part['ratio_out'].median():.2f}, "
-            f"{part['ratio_out'].max():.2f} | {part['ratio_in'].max():.2f} |"
+            f"{part['ratio_out'].max():.2f} | {part['ratio_in'].max():.2f} | "
+            f"{part['choices_held'].sum()}/{part['choices'].sum()} |"
         )
     lines.append("")
     lines.append(
-        f"out of support, recommended / best peer: median {table['ratio_out'].median():.2f}, worst "
+        f"out of support, recommended / best of peers and plain baselines: median "
+        f"{table['ratio_out'].median():.2f}, worst "
         f"{table['ratio_out'].max():.2f}, at most 1 in {(table['ratio_out'] <= 1).sum()}/{len(table)} plants; "
         f"in support: worst {table['ratio_in'].max():.2f}, within 5% in "
-        f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}"
+        f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}; a region's choice held on its test blocks in "
+        f"{table['choices_held'].sum()}/{table['choices'].sum()} regions"
     )
     return "\n".join(lines)
 
@@ -87,11 +108,11 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
     defaults = config.section_defaults("peers")
-    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high"):
+    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit"):
         parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    peer_settings = {key: getattr(args, key) for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high")}
+    peer_settings = {key: getattr(args, key) for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit")}
     table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
     text = (
         "table: out-of-support truth-RMSE on held-out parts (the odd blocks, where every model has an honest "

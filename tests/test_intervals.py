@@ -6,6 +6,7 @@ import pytest
 from scipy.stats import beta
 
 from hybridtwin.answers import coverage, intervals, regions
+from hybridtwin.models import stack
 from tests.conftest import says
 
 LEVEL = 0.9
@@ -419,11 +420,13 @@ def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
     weights, _ = nnls(X[rows], measured[rows])
     assert list(fitted.weights) == ["in_support"]  # too few calibration rows outside for a stack
     assert fitted.weights["in_support"] == pytest.approx(dict(zip(members, weights)))
-    # cross-fitted: each half of the rows blended with the weights fitted on the other half
-    first, second = rows[: len(rows) // 2], rows[len(rows) // 2 :]
+    # cross-fitted on whole choosing blocks: each even block's rows blended with the weights fitted on the other
+    # even blocks of the region (20 blocks of 150 rows; in support the even ones of the first 18)
+    block = np.arange(n) // 150
     stack = np.empty(n)
-    stack[second] = X[second] @ nnls(X[first], measured[first])[0]
-    stack[first] = X[first] @ nnls(X[second], measured[second])[0]
+    for b in range(0, 18, 2):
+        held, rest = rows[block[rows] == b], rows[block[rows] != b]
+        stack[held] = X[held] @ nnls(X[rest], measured[rest])[0]
     np.testing.assert_allclose(
         fitted.calibration["stack"]["in_support"], np.round(np.abs(measured[rows] - stack[rows]), 6), atol=2e-6
     )
@@ -431,6 +434,12 @@ def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():
     scores = {m: np.sqrt(np.mean((measured[rows] - p[rows]) ** 2)) for m, p in {**honest, "stack": stack}.items()}
     expected = sorted((m for m in scores if m != "hybrid_unfiltered"), key=scores.get)
     assert fitted.ranking["in_support"] == expected
+    # the stack's gain over the hybrid is beyond doubt on its nine blocks: it is chosen, the guard let it stand
+    gains = [
+        np.mean((measured[at] - honest["hybrid"][at]) ** 2) - np.mean((measured[at] - stack[at]) ** 2)
+        for at in (rows[block[rows] == b] for b in range(0, 18, 2))
+    ]
+    assert expected[0] == "stack" and sum(g > 0 for g in gains) >= 8
     # a new row is blended with the weights of all the region's rows; a region without a stack gives NaN
     blended = fitted.with_stack(honest, region)["stack"]
     np.testing.assert_allclose(blended[inside], X[inside] @ weights)
@@ -476,3 +485,50 @@ def test_gate_rows_beyond_a_doe_range_get_an_interval_region_of_their_own_when_e
     assert set(calibrated.region.choice[beyond]) == {"in_support"}  # its model: the support's, which learnt them
     labels = dict(zip(calibrated.table["region"], calibrated.table["region_label"]))
     says(labels["beyond_doe_range"], "inside the gate", "beyond a DoE range")
+
+
+def test_the_choice_keeps_the_simplest_strong_model_unless_another_wins_beyond_doubt_across_blocks():
+    # ten choosing blocks of 200 parts; the extended hybrid's errors are a little smaller than the GP discrepancy's
+    # in total, but only on two blocks (a campaign it happens to suit): not beyond doubt, the simpler GP stays
+    rng = np.random.default_rng(5)
+    n = 4000
+    calibration = regions.calibration_rows(n, 20)
+    block = np.arange(n) // 200
+    truth = rng.normal(0, 3, n)
+    measured = truth + rng.normal(0, 1, n)
+    gp = truth + rng.normal(0, 0.4, n)
+    lucky = np.isin(block, [0, 2])
+    extended = np.where(lucky, truth, gp)  # elsewhere the same errors: no blend beats both beyond doubt either
+    honest = {"gp_discrepancy": gp, "extended_hybrid": extended}
+    region = np.full(n, "in_support", dtype=object)
+    rows = np.flatnonzero(calibration)
+    rmse_of = {m: np.sqrt(np.mean((measured[rows] - p[rows]) ** 2)) for m, p in honest.items()}
+    assert rmse_of["extended_hybrid"] < rmse_of["gp_discrepancy"]
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
+    assert fitted.recommended["in_support"] == "gp_discrepancy"
+    assert fitted.ranking["in_support"][1] == "extended_hybrid"  # the rest by RMSE
+    # better on every block: beyond doubt, it is chosen
+    honest["extended_hybrid"] = truth + rng.normal(0, 0.1, n)
+    assert intervals.RegionIntervals.fit(measured, honest, region, calibration, []).recommended["in_support"] == (
+        "extended_hybrid"
+    )
+    # on fewer than five blocks nothing can be beyond doubt: the best by RMSE is taken, not the simplest
+    honest["extended_hybrid"] = extended
+    few = intervals.RegionIntervals.fit(measured, honest, region, regions.calibration_rows(n, 6), [])
+    assert few.recommended["in_support"] != "gp_discrepancy"
+    assert stack.choosing_blocks(calibration)[[0, 199, 200, 400, 3999]].tolist() == [0, 0, -1, 1, -1]
+
+
+def test_the_table_says_whether_each_regions_choice_held_on_its_test_blocks():
+    rng = np.random.default_rng(2)
+    n = 4000
+    truth = rng.normal(0, 3, n)
+    measured = truth + rng.normal(0, 1, n)
+    calibration = regions.calibration_rows(n, 20)
+    # the hybrid is better on the choosing blocks only: its choice does not hold on the test blocks
+    hybrid = np.where(calibration, truth + rng.normal(0, 0.1, n), truth + rng.normal(0, 1.5, n))
+    honest = {"hybrid": hybrid, "gp_discrepancy": truth + rng.normal(0, 0.5, n)}
+    region = np.full(n, "in_support", dtype=object)
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
+    best = coverage.best_on_test(measured, honest, region, calibration, fitted)
+    assert fitted.recommended == {"in_support": "hybrid"} and best == {"in_support": "gp_discrepancy"}

@@ -54,11 +54,22 @@ def test_gp_discrepancy_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
 
 
 def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
-    model = CoKriging(n_high=200).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
+    # the hyperparameters searched on 100 parts, the model refitted with them on 300 (a superset)
+    model = CoKriging(n_high=100, n_fit=300).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
     assert _rmse(model.predict(case["new"]), case["truth"]) < 0.3
     again = CoKriging.from_dict(model.to_dict())  # refitted with the stored hyperparameters, no search
     assert np.array_equal(again.predict(case["new"]), model.predict(case["new"]))
-    assert len(model.data_["X_high"]) == 200
+    assert len(model.data_["X_high"]) == 300 and len(model.hyper_rows_) == 100
+    assert np.isin(model.hyper_rows_, model.training_rows_).all()
+    assert model.mfk_.nt_all[-1] == 300  # the refit took every part
+    searched_only = CoKriging(n_high=100).fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
+    assert searched_only.mfk_.nt_all[-1] == 100
+    assert model.get_params()["corr"] == "squar_exp"  # SMT's documented kernel
+
+
+def test_every_recommendable_model_has_its_place_in_the_order_of_simplicity():
+    assert sorted(registry.SIMPLEST_FIRST) == sorted(registry.RECOMMENDABLE)
+    assert registry.SIMPLEST_FIRST[0] == "surrogate" and registry.SIMPLEST_FIRST[-1] == "stack"
 
 
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():

@@ -12,6 +12,7 @@ from scipy.stats import beta
 from hybridtwin.answers.intervals import (
     MAX_CALIBRATION_ROWS,
     RegionIntervals,
+    best_model,
     honest_predictions,
     min_calibration_rows,
     recommended_prediction,
@@ -164,7 +165,8 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
         "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
         "model that predicted a part saw its period), models never trained on the row outside it (a peer's out of "
         "period on the parts it trained on too); rows beyond every calibrated part (trust: extrapolation) get no "
-        "interval and are not scored; coverage of the measured value, with its 95% Clopper-Pearson interval"
+        "interval and are not scored; coverage of the measured value, with its 95% Clopper-Pearson interval; "
+        "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended)"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"
             if n_test > MAX_TEST_ROWS
@@ -216,7 +218,23 @@ def calibrate(
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])
     ]
-    return Calibration(fitted, table, region, calibration, fitted.with_stack(honest, region))
+    with_stack = fitted.with_stack(honest, region)
+    best = best_on_test(measured, with_stack, region.choice, calibration, fitted)
+    table["best_on_test"] = table["region"].map(best)
+    table["choice_holds"] = table["region"].map({name: fitted.recommended[name] == m for name, m in best.items()})
+    return Calibration(fitted, table, region, calibration, with_stack)
+
+
+def best_on_test(measured, honest: dict[str, np.ndarray], choice, calibration, fitted: RegionIntervals) -> dict:
+    """Per region where a model is chosen: the model of lowest RMSE on its test rows (the odd blocks), among the
+    models its ranking holds: whether the choice made on the choosing blocks held on the blocks that followed."""
+    best = {}
+    for name, order in fitted.ranking.items():
+        rows = np.flatnonzero(~calibration & (np.asarray(choice) == name))
+        candidates = {m: honest[m] for m in order if m in honest and np.isfinite(honest[m][rows]).any()}
+        if len(rows) and candidates:
+            best[name] = best_model(measured, candidates, rows)
+    return best
 
 
 def figure_data(calibrated: Calibration, measured, distance, level: float, seed: int, n_shown: int = 4000) -> dict:

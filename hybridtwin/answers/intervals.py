@@ -34,7 +34,15 @@ from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models import compose, registry
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
-from hybridtwin.models.stack import blend, cross_fitted_stack, members, stack_members, stack_weights
+from hybridtwin.models.stack import (
+    blend,
+    choosing_blocks,
+    cross_fitted_stack,
+    folds_of,
+    members,
+    stack_members,
+    stack_weights,
+)
 
 # the models a row's prediction can come from (registry.RECOMMENDABLE); the stack blends the others
 STACK = registry.STACK.name
@@ -86,21 +94,58 @@ def subsample(indices: np.ndarray, limit: int, seed: int) -> np.ndarray:
     return np.sort(np.random.default_rng(seed).choice(indices, limit, replace=False))
 
 
-def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> list[str]:
-    """The recommendable models, best first, by RMSE on the rows where every one of them has a value.
+# the choice keeps the simplest strong model unless another beats it beyond doubt: a lower RMSE, and a lower error
+# on the typical choosing block by the one-sided Wilcoxon signed-rank test over the blocks (at least five of them)
+CHOICE_ALPHA = 0.05
+MIN_CHOICE_FOLDS = 5
+
+
+def beats_beyond_doubt(measured, better: np.ndarray, other: np.ndarray, rows: np.ndarray, folds: np.ndarray) -> bool:
+    """Whether ``better`` beats ``other`` on ``rows`` beyond doubt across their ``folds`` (choosing blocks)."""
+    from scipy.stats import wilcoxon
+
+    if rmse(measured[rows], better[rows]) >= rmse(measured[rows], other[rows]):
+        return False
+    gains = [
+        np.mean((measured[at] - other[at]) ** 2) - np.mean((measured[at] - better[at]) ** 2)
+        for at in (rows[folds == fold] for fold in np.unique(folds))
+    ]
+    if len(gains) < MIN_CHOICE_FOLDS or not np.any(gains):
+        return False
+    return bool(wilcoxon(gains, alternative="greater").pvalue < CHOICE_ALPHA)
+
+
+def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray, folds=None) -> list[str]:
+    """The recommendable models by RMSE on the rows where every one of them has a value, the chosen one first:
+    the simplest (:data:`registry.SIMPLEST_FIRST`) that the best does not beat beyond doubt across the ``folds``
+    (each row's choosing block; without them, or on fewer than :data:`MIN_CHOICE_FOLDS` blocks, the best).
 
     The same rows for all: each part's noise then weighs on every model alike, and a difference far
     below the noise still shows (on different rows, the noise of the rows decides).
     """
     contenders = {m: p for m, p in candidates.items() if m in registry.RECOMMENDABLE}
-    common = rows[np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)]
+    finite = np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)
+    common = rows[finite]
     if not len(common):  # no row where all have a value: each on its own rows
         scores = {
             m: rmse(measured[rows][np.isfinite(p[rows])], p[rows][np.isfinite(p[rows])]) for m, p in contenders.items()
         }
     else:
         scores = {m: rmse(measured[common], p[common]) for m, p in contenders.items()}
-    return sorted(scores, key=lambda m: (scores[m], registry.RECOMMENDABLE.index(m)))
+    order = sorted(scores, key=lambda m: (scores[m], registry.RECOMMENDABLE.index(m)))
+    if folds is None or not len(common) or len(np.unique(np.asarray(folds)[finite])) < MIN_CHOICE_FOLDS:
+        return order  # too few blocks to doubt anything: the best
+    folds = np.asarray(folds)[finite]
+    best = contenders[order[0]]
+    for model in sorted(contenders, key=registry.SIMPLEST_FIRST.index):
+        if model == order[0] or not beats_beyond_doubt(measured, best, contenders[model], common, folds):
+            return [model, *(m for m in order if m != model)]
+    return order
+
+
+def best_model(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> str:
+    """The recommendable model of lowest RMSE on ``rows`` (the rows where every one has a value), no guard."""
+    return _ranking(np.asarray(measured, float), candidates, rows)[0]
 
 
 class RegionIntervals:
@@ -149,17 +194,21 @@ class RegionIntervals:
         region = as_regions(region)
         members = stack_members(honest)
         stack = np.full(len(measured), np.nan)
+        blocks = choosing_blocks(calibration)
         weights, ranked_rows = {}, {}
         for name in sorted(set(region.choice[calibration])):
             rows = np.flatnonzero(calibration & (region.choice == name))  # all of them: the choice is noisy enough
             complete = rows[np.all([np.isfinite(p[rows]) for p in members.values()], axis=0)] if members else rows[:0]
             if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
                 weights[name] = stack_weights(measured, members, complete)
-                stack[complete] = cross_fitted_stack(measured, members, complete)[complete]
+                folds = folds_of(blocks, complete)
+                stack[complete] = cross_fitted_stack(measured, members, complete, folds)[complete]
             ranked_rows[name] = rows
         candidates = {**honest, STACK: stack} if weights else dict(honest)
         ranking = {
-            name: _ranking(measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows)
+            name: _ranking(
+                measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows, blocks[rows]
+            )
             for name, rows in ranked_rows.items()
         }
         table = {}

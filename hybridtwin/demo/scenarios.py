@@ -406,13 +406,15 @@ def _monotone(fitted: np.ndarray, x: np.ndarray) -> bool:
 COMPARED_MODELS = (HYBRID.name, EXTENDED_HYBRID.name, *registry.PEER_NAMES, registry.STACK.name, registry.RECOMMENDED)
 
 
-def truth_scores(truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray) -> dict[str, float]:
+def truth_scores(
+    truth, honest: dict[str, np.ndarray], test: np.ndarray, inside: np.ndarray, models=COMPARED_MODELS
+) -> dict[str, float]:
     """Truth-RMSE of each compared model out of and in the support, all on the same test rows: those
     where every one has an honest prediction (on a log shorter than a peer's sample limit, every model has
     one on every in-support part)."""
-    common = test & np.all([np.isfinite(honest[model]) for model in COMPARED_MODELS], axis=0)
+    common = test & np.all([np.isfinite(honest[model]) for model in models], axis=0)
     scored = {}
-    for model in COMPARED_MODELS:
+    for model in models:
         for where, mask in (("out", common & ~inside), ("in", common & inside)):
             scored[f"{model}_{where}"] = rmse(truth[mask], honest[model][mask]) if mask.any() else float("nan")
     return scored
@@ -424,13 +426,16 @@ def compare_models(
     n_jobs: int = 1,
     settings: diagnosis.Settings | None = None,
     peer_settings: dict | None = None,
+    others=None,
 ) -> dict:
     """The paper's hybrid, the extension, the peers, their stack and the recommended model on one plant.
 
     The workflow's steps (:class:`harness.Run`): every model fitted on the DoE and the in-support parts; honest
     predictions (out-of-fold on the parts a model trained on, a peer's too); the recommended model and the stack
     chosen on the even blocks of consecutive parts; every score on the odd blocks. Returns, per model, the
-    truth-RMSE out of and in the support on those rows.
+    truth-RMSE out of and in the support on those rows, and per region whether its choice held there
+    (``holds_<region>``: the recommended model has the lowest measured RMSE on the region's test rows).
+    ``others(run)``: more honest predictions by name (a benchmark's baselines), scored on the same rows.
     """
     from hybridtwin.answers.intervals import recommended_prediction
 
@@ -443,7 +448,11 @@ def compare_models(
     honest[registry.RECOMMENDED] = recommended_prediction(
         calibrated.intervals, calibrated.honest, calibrated.region, level
     )[registry.RECOMMENDED_COLUMN].to_numpy()
-    scored = truth_scores(case.truth, honest, ~calibrated.calibration, run.inside)
+    extra = others(run) if others is not None else {}
+    honest.update(extra)
+    scored = truth_scores(case.truth, honest, ~calibrated.calibration, run.inside, (*COMPARED_MODELS, *extra))
+    table = calibrated.table.drop_duplicates("region").set_index("region")["choice_holds"].dropna()
+    scored.update({f"holds_{name}": bool(held) for name, held in table.items()})
     scored["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
     scored["n_in_support"] = int(run.inside.sum())
     return scored

@@ -36,8 +36,9 @@ def estimator_class(name: str):
 
 
 def new_peer(name: str, settings: dict, seed: int):
-    """A peer's estimator with its settings from the config's ``peers`` section."""
-    arguments = {argument: settings[key] for key, argument in peer_entry(name).settings}
+    """A peer's estimator with its settings from the config's ``peers`` section (a setting not given: the class's
+    own default)."""
+    arguments = {argument: settings[key] for key, argument in peer_entry(name).settings if key in settings}
     return estimator_class(name)(**arguments, random_state=seed)
 
 

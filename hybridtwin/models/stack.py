@@ -25,12 +25,33 @@ def blend(weights: dict[str, float], predictions: dict[str, np.ndarray], rows) -
     return sum((weights[m] * predictions[m][rows] for m in members(weights)), np.zeros(len(rows)))
 
 
-def cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarray) -> np.ndarray:
-    """The stack on ``rows``, each half predicted with the weights fitted on the other half (no row scores itself)."""
+def choosing_blocks(calibration) -> np.ndarray:
+    """Per row, its choosing block: the index of its stretch of consecutive calibration rows (-1 for other rows).
+
+    A block is a period of the log: its campaigns, coils and hours; a choice judged on blocks it did not see is
+    judged as the next campaign will judge it.
+    """
+    rows = np.asarray(calibration, bool)
+    starts = rows & ~np.r_[False, rows[:-1]]
+    return np.where(rows, np.cumsum(starts) - 1, -1)
+
+
+def folds_of(blocks: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The fold of each of ``rows`` (in time order): its choosing block, or with the rows in a single block,
+    the two halves of them."""
+    labels = np.asarray(blocks)[rows]
+    if len(np.unique(labels)) >= 2:
+        return labels
+    return (np.arange(len(rows)) >= len(rows) // 2).astype(int)
+
+
+def cross_fitted_stack(measured, members: dict[str, np.ndarray], rows: np.ndarray, folds: np.ndarray) -> np.ndarray:
+    """The stack on ``rows``, each fold's rows (a choosing block: :func:`folds_of`) blended with the weights fitted
+    on the other folds: no weight is judged on a block it was fitted on."""
     out = np.full(len(measured), np.nan)
-    first, second = rows[: len(rows) // 2], rows[len(rows) // 2 :]
-    out[second] = blend(stack_weights(measured, members, first), members, second)
-    out[first] = blend(stack_weights(measured, members, second), members, first)
+    for fold in np.unique(folds):
+        held, rest = rows[folds == fold], rows[folds != fold]
+        out[held] = blend(stack_weights(measured, members, rest), members, held)
     return out
 
 
