@@ -112,7 +112,8 @@ def main() -> None:
         parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    peer_settings = {key: getattr(args, key) for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit")}
+    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit")
+    peer_settings = {key: getattr(args, key) for key in peer_keys}
     table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
     text = (
         "table: out-of-support truth-RMSE on held-out parts (the odd blocks, where every model has an honest "
