@@ -128,7 +128,8 @@ def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rul
     A separate mild tilt in one column (yield strength, with tensile strength beside it) is taken up by the
     product's own linear terms; the product's bilinear term then only needs to fit the surrogate's error along
     the other column to out-score the single column. Otherwise the better single column is named (if it is
-    significant), with its tilt as its own form.
+    significant), with its tilt as its own form. Where the product and the two columns apart predict alike and
+    the second column adds to the first, the product (one cause in place of two) is kept.
     """
     if best.candidate.kind != "interaction":
         return best
@@ -136,12 +137,18 @@ def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rul
     if len(columns) < 2:
         return best
     settings = rules.settings
+    single = min(columns, key=lambda fit: (fit.score, fit.candidate.name))
     for splits in fold_sets(best.candidate, settings):
         product = held_out(best.form.name, best.candidate.values, y, splits)
-        beaten = block_p_value(y, product, settings.n_blocks, reference=held_out_sum(columns, splits, y))
-        if beaten >= settings.alpha:
-            single = min(columns, key=lambda fit: (fit.score, fit.candidate.name))
-            return single if rules.significant(single) else best
+        both = held_out_sum(columns, splits, y)
+        if block_p_value(y, product, settings.n_blocks, reference=both) < settings.alpha:
+            continue
+        # no better than the two columns apart: one of them alone, unless the two apart are no better than
+        # the product either and the other column adds to the first (then the product is one cause for two)
+        apart_better = block_p_value(y, both, settings.n_blocks, reference=product) < settings.alpha
+        second_adds = block_p_value(y, both, settings.n_blocks, reference=held_out_sum([single], splits, y))
+        if (apart_better or second_adds >= settings.alpha) and rules.significant(single):
+            return single
     return best
 
 

@@ -21,3 +21,6 @@ RIVAL_SHARE = 0.5
 MAX_RIVALS = 8
 # a changed cause changes what the others are fitted to: go round again, a few times at most
 REFINE_PASSES = 3
+# an id that stands is still named after the smooth causes when they account for this share of its level
+# differences (a lubricant that changes per coil, with offsets of its own beside it)
+ID_ACCOUNTED_SMOOTH_FIRST = 0.5

@@ -30,7 +30,7 @@ from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
 from hybridtwin.diagnosis.ids import id_stands
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
-from hybridtwin.diagnosis.policy import REFINE_PASSES, SHARE_TOLERANCE
+from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.diagnosis.table import Found, causes_table
 from hybridtwin.metrics import block_means
@@ -92,13 +92,21 @@ class Selection:
         self.conditional = self.rules.fit_all([c for c in self.candidates if c.name not in self.names], self.remaining)
 
     def next_cause(self) -> Fit | None:
-        """The next cause given those chosen, or None when no candidate is significant; ids come last."""
+        """The next cause given those chosen, or None when no candidate is significant.
+
+        An id that predicts best is named only if its offsets stand once the smooth candidates are out."""
         chosen = self.names
         # a pair that is no interaction is not a candidate
         pool = [f for n, f in self.conditional.items() if n not in chosen and f.form.name != forms.Additive.name]
         smooth = [f for f in pool if f.candidate.kind != "group"]
         best = self._next_smooth(smooth) if smooth else None
-        return best if best is not None else self._next_id([f for f in pool if f.candidate.kind == "group"])
+        # an id is tried only where it predicts better than every significant smooth cause
+        bar = min((f.score for f in smooth if self.rules.significant(f)), default=np.inf)
+        named_id, accounted = self._next_id([f for f in pool if f.candidate.kind == "group" and f.score < bar])
+        # an id whose offsets are mostly what the smooth causes do is named after them (a lubricant per coil)
+        if named_id is None or (best is not None and accounted >= ID_ACCOUNTED_SMOOTH_FIRST):
+            return best
+        return named_id
 
     def _next_smooth(self, pool: list[Fit]) -> Fit | None:
         """The best significant column, product or time given those chosen (the simplest that predicts the same).
@@ -115,17 +123,18 @@ class Selection:
         best = product_or_column(best, {c.name: c for c in self.candidates}, self.remaining, self.rules)
         return best if self.rules.significant(best) else None
 
-    def _next_id(self, pool: list[Fit]) -> Fit | None:
+    def _next_id(self, pool: list[Fit]) -> tuple[Fit | None, float]:
         """The best id whose offsets stand once the model inputs' surface and the smooth candidates are out
-        (:func:`~hybridtwin.diagnosis.ids.id_stands`); an id they account for is recorded, not named."""
+        (:func:`~hybridtwin.diagnosis.ids.id_stands`), with the share they account for; an id they account
+        for is recorded, not named."""
         for fit in sorted(pool, key=lambda fit: (fit.score, fit.candidate.name)):
             if not self.rules.significant(fit):
                 continue
             stands, names, share = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules)
             if stands:
-                return fit
+                return fit, share
             self.proxies[fit.candidate.name] = (names, share)
-        return None
+        return None, 0.0
 
     def forward(self) -> None:
         """Forward selection, each step conditional on the causes already chosen."""
