@@ -32,11 +32,7 @@ def _draws():
 DRAWS = _draws()
 
 # Known misses, kept in view: a strict xfail turns red once the method gets them right.
-KNOWN_MISSES = {
-    # a sigmoid in the per-coil rm_mpa takes up more than half of the offsets of the few coils in
-    # support (the id is named second); the bank counts how often this happens
-    ("demo", "coil_offset", 2, "test_names_the_hidden_cause_and_its_form"),
-}
+KNOWN_MISSES: set[tuple[str, str, int, str]] = set()
 
 
 @pytest.fixture(scope="module", params=DRAWS, ids=[f"{g}-{k}-{s}" for g, k, s in DRAWS])

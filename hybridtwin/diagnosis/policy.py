@@ -22,5 +22,6 @@ MAX_RIVALS = 8
 # a changed cause changes what the others are fitted to: go round again, a few times at most
 REFINE_PASSES = 3
 # an id that stands is still named after the smooth causes when they account for this share of its level
-# differences (a lubricant that changes per coil, with offsets of its own beside it)
-ID_ACCOUNTED_SMOOTH_FIRST = 0.5
+# differences held out by level (a wear or a lubricant that changes per coil, with offsets of the coil's own
+# beside it); offsets no smooth quantity predicts are accounted for near 0
+ID_ACCOUNTED_SMOOTH_FIRST = 0.25
