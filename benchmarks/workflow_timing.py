@@ -92,12 +92,15 @@ def main() -> None:
     parser.add_argument("results", nargs="?", default="results", help="a finished run's results folder")
     parser.add_argument("--run", action="store_true", help="run the demo from an empty results folder first")
     parser.add_argument("--out", help="also write the Markdown to this file")
+    parser.add_argument("--keep", help="with --run: run into this new folder and keep it (logs, outputs)")
     args = parser.parse_args()
     wall = None
     with tempfile.TemporaryDirectory(prefix="timing-") as scratch:
         results = Path(args.results).resolve()
         if args.run:
-            results = Path(scratch, "results")
+            results = Path(args.keep or Path(scratch, "results")).resolve()
+            if results.exists():
+                sys.exit(f"{results} exists: --run starts from an empty results folder")
             start = time.perf_counter()
             snakemake("--cores", str(CORES), "--config", f"results_dir={results}")
             wall = time.perf_counter() - start

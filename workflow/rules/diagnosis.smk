@@ -22,7 +22,8 @@ rule diagnose:
         benchmark_of("diagnose")
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
+    # one core, beside the tuning, which it does not wait for (its result does not depend on the threads)
+    threads: 1
     params:
         code=PACKAGE_CODE,
         spec=spec("target", "seed", "folds"),

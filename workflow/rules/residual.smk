@@ -28,9 +28,12 @@ rule tune_worker:
         benchmark_of("tune_worker", "_{worker}")
     wildcard_constraints:
         worker=r"\d+",
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
+    # one core: the peers and the diagnosis, which do not wait for the tuning, run on the other
+    # (XGBoost's hist results do not depend on the thread count; a cluster profile sets more)
+    threads: 1
     params:
         **TUNING_PARAMS,
     script:
