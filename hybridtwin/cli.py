@@ -127,7 +127,8 @@ def run(args) -> None:
         predictor.write(answers, args.output, fmt)
         logging.getLogger("hybridtwin").info("%d row(s) written to %s", len(answers), args.output)
     else:
-        print(answer.on_screen(answers, predictor.inputs, predictor.spec["unit"]))
+        varied = (name,) if args.command == "sweep" else ()
+        print(answer.on_screen(answers, predictor.inputs, predictor.spec["unit"], varied=varied))
 
 
 def _plot(predictor, answers, name: str, path: str) -> None:

@@ -164,3 +164,12 @@ def test_a_sweep_writes_a_row_per_value_and_its_figure(tmp_path):
     assert "die_temp_c" not in swept["filled_inputs"].iloc[0]
     assert swept["trust"].iloc[-1] == trust.EXTRAPOLATION and np.isnan(swept["pred_upper"].iloc[-1])
     assert figure.stat().st_size > 10_000
+
+
+def test_a_sweep_on_screen_shows_the_varied_input_and_why_rows_are_not_validated(capsys):
+    assert main(["sweep", "--models", MODELS, "--vary", "die_temp_c=10:90:3"]) == 0
+    shown = capsys.readouterr().out
+    header, *rows = shown.splitlines()[:4]
+    says(header, "row", "die_temp_c", "prediction", "trust")
+    assert [row.split()[1] for row in rows] == ["10", "50", "90"]
+    says(shown, "row 3: die_temp_c 90")  # the extrapolation's reason, numbered by its own row

@@ -92,23 +92,27 @@ def assemble(frame, where: Where, values: dict, picked: pd.DataFrame, level: flo
     return out
 
 
-def on_screen(answers: pd.DataFrame, inputs, unit: str, limit: int = 30) -> str:
-    """What a terminal shows: one row as a list, the answer first; several as a short table, then why each row
-    that is not validated is so."""
+def on_screen(answers: pd.DataFrame, inputs, unit: str, limit: int = 30, varied: tuple[str, ...] = ()) -> str:
+    """What a terminal shows: one row as a list, the answer first; several as a short table (with the ``varied``
+    inputs' values: a sweep's), then why each row that is not validated is so."""
     if len(answers) == 1:
         return _one(answers.iloc[0], inputs, unit)
     shown = answers.head(limit)
     table = pd.DataFrame(
         {
             "row": np.arange(1, len(shown) + 1),
+            **{name: shown[name].map(lambda value: f"{value:g}") for name in varied},
             f"prediction [{unit}]": shown[registry.RECOMMENDED_COLUMN].map(_number),
             "interval": [_interval(row) for _, row in shown.iterrows()],
             "trust": shown["trust"],
             "model": shown["recommended_model"],
         }
     ).to_string(index=False)
-    notes = [f"row {i + 1}: {reason}" for i, reason in enumerate(shown["trust_reason"]) if reason.split(":")[0]]
-    notes = [note for note, verdict in zip(notes, shown["trust"]) if verdict != "validated"]
+    notes = [
+        f"row {i + 1}: {reason}"
+        for i, (reason, verdict) in enumerate(zip(shown["trust_reason"], shown["trust"]))
+        if verdict != "validated" and reason
+    ]
     more = f"\n… {len(answers) - limit} more row(s): write them with -o FILE.csv" if len(answers) > limit else ""
     return table + ("\n\n" + "\n".join(notes) if notes else "") + more
 
