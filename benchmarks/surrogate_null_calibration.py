@@ -13,7 +13,8 @@ The approximate residual of a production part is the plant's discrepancy plus th
 (:math:`f(x) - m(x)`, the simulator less the GPR's mean). That error is a smooth function of the inputs, so it is
 constant within a coil wherever the material is per coil, and it follows the setting campaigns: it has the
 structure of an id's offsets or a slow trend. Draws of it from the GPR's posterior say what such structure the
-surrogate alone gives (the diagnosis' surrogate null, :mod:`hybridtwin.diagnosis.surrogate_null`).
+surrogate alone gives: the null considered for the diagnosis, which takes its null from the data instead
+(:mod:`hybridtwin.diagnosis.ids`).
 
 Draws over thousands of parts use pathwise conditioning (Wilson et al., 2020, "Efficiently sampling functions
 from Gaussian process posteriors"): a draw of the prior from random Fourier features of the Matérn kernel, at the
