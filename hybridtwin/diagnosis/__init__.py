@@ -5,11 +5,27 @@
 :mod:`.extension` adds the chosen causes to the surrogate and guards the result out of the support.
 """
 
-from hybridtwin.diagnosis.candidates import Candidate, build_candidates
-from hybridtwin.diagnosis.fits import Fit, Rules, best_fit
-from hybridtwin.diagnosis.selection import Diagnosis, diagnose
-from hybridtwin.diagnosis.settings import Settings
-from hybridtwin.diagnosis.table import summary_dict
+import importlib
+
+# names exported lazily (PEP 562): a report page that needs only the wording does not import scikit-learn
+_EXPORTS = {
+    "Candidate": "candidates",
+    "build_candidates": "candidates",
+    "Fit": "fits",
+    "Rules": "fits",
+    "best_fit": "fits",
+    "Diagnosis": "selection",
+    "diagnose": "selection",
+    "Settings": "settings",
+    "summary_dict": "table",
+}
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+
 
 __all__ = [
     "Candidate",

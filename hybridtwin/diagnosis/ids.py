@@ -25,11 +25,11 @@ from hybridtwin.diagnosis.candidates import Candidate
 from hybridtwin.diagnosis.fits import Fit, Rules
 from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.naming import between_level_ss
+from hybridtwin.diagnosis.wording import INPUT_SURFACE
 
 RIDGE_PENALTIES = np.logspace(-3, 4, 15)
 MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets together with the input surface
 PASSES = 3  # backfitting passes of the surface and the smooth candidates
-INPUT_SURFACE = "the model inputs"  # how the surface is named among what accounts for an id's offsets
 
 
 def surface(inputs: np.ndarray, y: np.ndarray, penalty: float | None = None):
@@ -102,14 +102,3 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
     names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth]
     return rules.significant(rules.best_fit(fit.candidate, left)), tuple(names), float(max(0.0, share))
-
-
-def accounted_words(names, code=str) -> str:
-    """What accounts for an id's offsets, in words; ``code`` formats a column's name."""
-    words = [
-        f"{INPUT_SURFACE} (the surrogate's own error, or an effect of the inputs alone)"
-        if name == INPUT_SURFACE
-        else code(name)
-        for name in names
-    ]
-    return " and ".join(words) if words else "nothing"

@@ -11,7 +11,7 @@ import pandas as pd
 
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.fits import Rules
-from hybridtwin.diagnosis.ids import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis

@@ -7,7 +7,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.ids import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
 # the report's words for the gain table's columns

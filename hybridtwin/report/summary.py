@@ -12,7 +12,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.ids import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words
 from hybridtwin.models import registry
 
 REGION_WORDS = {"in_support": "in the validated domain (in support)"}

@@ -1,0 +1,14 @@
+"""What accounts for an id's offsets, in words: light (no numpy), for the report's pages."""
+
+INPUT_SURFACE = "the model inputs"  # how the surface is named among what accounts for an id's offsets
+
+
+def accounted_words(names, code=str) -> str:
+    """What accounts for an id's offsets, in words; ``code`` formats a column's name."""
+    words = [
+        f"{INPUT_SURFACE} (the surrogate's own error, or an effect of the inputs alone)"
+        if name == INPUT_SURFACE
+        else code(name)
+        for name in names
+    ]
+    return " and ".join(words) if words else "nothing"
