@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from sklearn.base import clone
-from sklearn.model_selection import KFold
 
 from hybridtwin.metrics import scores
 
@@ -24,6 +22,8 @@ def folds(n_rows: int, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nda
     """Shuffled K-fold (train, test) index pairs; the same seed gives the same split."""
     if n_rows < n_folds:
         raise ValueError(f"{n_rows} rows are fewer than the {n_folds} CV folds")
+    from sklearn.model_selection import KFold  # here: the paper's tables splice folds without scikit-learn
+
     return list(KFold(n_splits=n_folds, shuffle=True, random_state=seed).split(np.arange(n_rows)))
 
 
@@ -79,6 +79,8 @@ def cross_validate(
     ``splits``: the (train, test) pairs (default: shuffled K-fold of ``seed``); ``after_fold(rows)``, if given,
     sees the per-fold metrics so far after each fold (to stop early).
     """
+    from sklearn.base import clone
+
     X, y = np.asarray(X, float), np.asarray(y, float)
     oof = np.empty_like(y)
     rows = []

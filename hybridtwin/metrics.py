@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 
 def rmse(y_true, y_pred) -> float:
@@ -84,6 +83,8 @@ def block_p_value(y, prediction, n_blocks: int, reference=None, min_blocks: int 
     se = means.std(ddof=1) / np.sqrt(len(means))
     if se == 0:
         return 0.0 if means.mean() > 0 else 1.0
+    from scipy import stats  # here: scipy.stats costs a small rule half its run time to import
+
     return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
 
 
@@ -97,4 +98,6 @@ def signed_rank_p_value(y, prediction, reference, n_blocks: int, min_blocks: int
     means = block_gains(y, prediction, n_blocks, reference, min_blocks)
     if not np.any(means):
         return 1.0
+    from scipy import stats
+
     return float(stats.wilcoxon(means, alternative="greater").pvalue)
