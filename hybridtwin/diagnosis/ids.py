@@ -10,8 +10,9 @@ inputs alone. Whatever a smooth surface of the inputs predicts of an id's offset
 and so unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
 significant on their own, below the margin too). The id is named only where its offsets, with both held out by
 level, still pass every rule of a cause. A GPR posterior's draws were the first candidate for this null; on the
-structures bank's plants the surrogate's real error across coils was 2-10 times the draws' (the GPR's
-hyperparameters, fitted on a few dozen runs, are over-confident), so the null is taken from the data instead.
+structures generator's plants the surrogate's real variance between coils was 3.2 times the draws' (median; above
+their 95% quantile on 6 of 10 plants: benchmarks/surrogate_null_calibration.py), so the null is taken from the
+data instead.
 """
 
 from __future__ import annotations
