@@ -36,7 +36,7 @@ def main(snakemake):
     manifest = predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units)
     # the monitor's regimes and limits, from the whole log (its coil ids and shifts mark the regimes)
     log = read_checked(snakemake.input.production)
-    manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level, log, spec.inputs, spec.seed)
+    manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level, log, spec.inputs, spec.seed, causes)
     files.write_json(manifest, snakemake.output.manifest)
     matched = read_checked(snakemake.input.matched)
     peer_models = {name: peers.load_peer(name, files.read_json(snakemake.input[f"peer_{name}"])) for name in p.peers}

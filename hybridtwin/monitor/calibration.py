@@ -19,6 +19,7 @@ The workflow stores them in ``predictor.json`` (key ``monitor``).
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from hybridtwin.models.registry import RECOMMENDED_COLUMN
 from hybridtwin.monitor import chart, regimes
@@ -100,10 +101,27 @@ def constants(log, inputs, residual, z, region, models, seed: int = 0) -> tuple[
     return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level)
 
 
-def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0) -> dict:
+def slopes(log, causes, residual, z, group) -> dict:
+    """Per numeric cause of the models' extension (no clock): the log's slope of the honest residual on it and
+    its standard error clustered by regime: how the in-control residual follows the cause
+    (:func:`changes.moved_cause` compares a batch's with it)."""
+    from hybridtwin.monitor.changes import clocks, slope
+
+    timing = clocks(log)
+    judged = np.isfinite(z)
+    out = {}
+    for column in sorted(causes):
+        if column in log and column not in timing and pd.api.types.is_numeric_dtype(log[column]):
+            fitted, error = slope(log[column].to_numpy(float)[judged], residual[judged], group[judged])
+            if np.isfinite(error):
+                out[str(column)] = [fitted, error]
+    return out
+
+
+def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, causes=()) -> dict:
     """The ``monitor`` key of predictor.json from the prediction_intervals rule's calibration (its intervals,
-    honest predictions and regions), the log's measured target and the production log itself (every column, in
-    the same time order)."""
+    honest predictions and regions), the log's measured target, the production log itself (every column, in
+    the same time order) and the columns of the extension's causes."""
     from hybridtwin.answers.intervals import recommended_prediction
 
     picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
@@ -111,7 +129,13 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0) ->
     residual = np.asarray(measured, float) - picked[RECOMMENDED_COLUMN].to_numpy(float)
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
     z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
-    found, fitted = constants(
-        log, inputs, residual, z, calibrated.region.interval, picked["recommended_model"].to_numpy(object), seed
-    )
-    return {"regimes": found.to_dict(), **fitted.to_dict(), "limit": chart.LIMIT, "log_parts": int(usable.sum())}
+    models = picked["recommended_model"].to_numpy(object)
+    found, fitted = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
+    group = regimes.labels(found.starts(log), models)
+    return {
+        "regimes": found.to_dict(),
+        **fitted.to_dict(),
+        "slopes": slopes(log, causes, residual, z, group),
+        "limit": chart.LIMIT,
+        "log_parts": int(usable.sum()),
+    }

@@ -69,6 +69,8 @@ class Chart:
     start_at: int | None  # index of the part the change is estimated to start at
     direction: int  # +1: the plant measures more than the models expect; -1: less; 0: no alarm
     alarmed_by: str = ""  # which chart alarmed (WITHIN or LEVEL; empty: the plain chart, or no alarm)
+    group: np.ndarray | None = None  # each part's regime and model (the regime charts), or None (the plain chart)
+    scale: float = float("nan")  # the within-regime scatter the log showed (the target's unit; the regime charts)
 
     @property
     def statistic(self) -> np.ndarray:
@@ -174,9 +176,11 @@ def regime_chart(residual, z, region, group, constants: Constants) -> Chart:
     z = np.asarray(z, float)
     candidates = [(c.alarm_at, name, c) for name, c in ((WITHIN, inner), (LEVEL, outer)) if c.alarm_at is not None]
     if not candidates:
-        return Chart(z, up, down, LIMIT, WITHIN_REFERENCE, None, None, 0)
+        return Chart(z, up, down, LIMIT, WITHIN_REFERENCE, None, None, 0, "", group, constants.pooled_scale)
     at, name, alarmed = min(candidates, key=lambda item: item[0])
     start = alarmed.start_at
     if name == LEVEL:  # a regime's level is known at its last counted part: the change began with the regime
         start = int(np.flatnonzero((group == group[start]) & ~np.isnan(z))[0])
-    return Chart(z, up, down, LIMIT, WITHIN_REFERENCE, at, start, alarmed.direction, name)
+    return Chart(
+        z, up, down, LIMIT, WITHIN_REFERENCE, at, start, alarmed.direction, name, group, constants.pooled_scale
+    )
