@@ -156,6 +156,17 @@ def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor
     assert calibration.limits(within, np.full(8000, np.nan), starts, 0)[0] == pytest.approx(raised.within_limit)
 
 
+def test_the_floors_keep_independent_noise_quiet_through_the_same_charts():
+    rng = np.random.default_rng(6)
+    within, levels = [], []
+    for _ in range(200):  # batches of 10,000 parts, regimes of 50 to 500
+        group = np.repeat(np.arange(100), rng.integers(50, 500, 100))[:10_000]
+        within.append(calibration.peak(regimes.within(rng.normal(0, 1, 10_000), group, 5, chart.WITHIN_WINDOW), 0.5))
+        levels.append(calibration.peak(rng.normal(0, 1, 200), chart.LEVEL_REFERENCE))
+    assert max(within) < calibration.FLOOR_WITHIN and max(levels) < calibration.FLOOR_LEVEL
+    assert np.quantile(within, 0.99) > calibration.FLOOR_WITHIN / 2  # the floor is no wild guess either
+
+
 def test_a_known_cause_moved_when_the_residual_follows_it_by_another_slope_since_the_start():
     rng = np.random.default_rng(5)
     n = 6000

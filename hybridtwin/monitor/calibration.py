@@ -9,9 +9,10 @@ the part outside), in time order, set the two charts of :func:`chart.regime_char
 
 * the scatter inside a regime (per interval region, in the target's unit) and the spread of the regimes' levels
   (in expected errors), which standardize the two charts;
-* each chart's limit ``h``: batches of BATCH_PARTS parts are drawn from the log's own regimes (a block bootstrap,
-  whole regimes with replacement, BOOTSTRAP batches); ``h`` is MARGIN times the highest either chart reaches on
-  any of them, and at least the floor that gives independent errors an average run of a million parts.
+* each chart's limit ``h``: batches of BATCH_PARTS parts are drawn from the log (a block bootstrap: runs of whole
+  regimes at least BLOCK_PARTS long, with replacement, BOOTSTRAP batches); ``h`` is MARGIN times the highest
+  either chart reaches on any of them, and at least the floor at which independent normal errors alarm in one
+  batch in a thousand (times MARGIN).
 
 The workflow stores them in ``predictor.json`` (key ``monitor``).
 """
@@ -27,8 +28,11 @@ from hybridtwin.monitor import chart, regimes
 BOOTSTRAP = 400  # batches drawn from the log's regimes
 BATCH_PARTS = 10_000  # parts in each
 MARGIN = 1.25  # the limit over the highest statistic the drawn batches reach
-FLOOR_WITHIN = 13.0  # k = 0.5: independent unit errors alarm once in about 10^6 parts (Siegmund)
-FLOOR_LEVEL = 5.0  # k = 1: independent regime levels alarm once in about 50,000 regimes
+# the floors: MARGIN times the statistic that independent normal errors reach in one batch of 10,000 parts in a
+# thousand (simulated through the same charts, regimes of 50 to 500 parts: 13.9 within a regime, 5.6 over 200
+# regimes' levels); the log's bootstrap cannot go beyond the log's own extremes
+FLOOR_WITHIN = 17.5
+FLOOR_LEVEL = 7.0
 BLOCK_PARTS = 1000  # the bootstrap draws runs of consecutive regimes at least this long
 LEAST_SCALE = 200  # judged within-regime parts a region needs for a scatter of its own
 
