@@ -29,7 +29,7 @@ BOOTSTRAP = 400  # batches drawn from the log's regimes
 BATCH_PARTS = 10_000  # parts in each
 MARGIN = 1.25  # the limit over the highest statistic the drawn batches reach
 # the floors: MARGIN times the statistic that independent normal errors reach in one batch of 10,000 parts in a
-# thousand (simulated through the same charts, regimes of 50 to 500 parts: 13.9 within a regime, 5.6 over 200
+# thousand (simulated through the same charts, regimes of 50 to 500 parts: 14.1 within a regime, 5.6 over 200
 # regimes' levels); the log's bootstrap cannot go beyond the log's own extremes
 FLOOR_WITHIN = 17.5
 FLOOR_LEVEL = 7.0

@@ -110,7 +110,7 @@ WITHIN, LEVEL = "within a regime", "regime levels"
 WITHIN_REFERENCE = 0.5  # k of the within-regime chart, in SDs of the within-regime scatter
 LEVEL_REFERENCE = 1.0  # k of the regime-level chart, in SDs of a regime's level (neighbouring regimes are alike)
 LEAST_WITHIN = 5  # judged parts of a regime that set its level before the within-regime chart judges a part
-WITHIN_WINDOW = 50  # the within-regime level: the mean of at most this many judged parts before (a slow trend)
+WITHIN_WINDOW = 200  # the within-regime level: the mean of at most this many judged parts before (a slow trend)
 LEVEL_PARTS = 50  # a regime's level: the mean z of its first this-many judged parts
 LEAST_LEVEL = 5  # a regime with fewer judged parts has no level
 
