@@ -230,6 +230,8 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     at, low, high = step_of(values, 402)
     assert abs(at - 400) <= 2 and low == pytest.approx(0.45, abs=0.01) and high == pytest.approx(0.55, abs=0.01)
     assert step_of(np.linspace(20, 60, 800) + rng.normal(0, 0.3, 800), 400) is None
+    campaign = np.r_[np.full(400, 0.45), np.full(300, 0.55), np.full(1100, 0.45)] + rng.normal(0, 0.004, 1800)
+    assert step_of(campaign, 400) is not None and step_of(campaign, 400, kept=1000) is None  # it did not last
     frame = pd.DataFrame({"strokes": np.arange(10), "t": pd.date_range("2026-01-01", periods=10).astype(str)})
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
 

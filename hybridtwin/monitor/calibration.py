@@ -10,9 +10,9 @@ the part outside), in time order, set the two charts of :func:`chart.regime_char
 * the scatter inside a regime (per interval region, in the target's unit) and the spread of the regimes' levels
   (in expected errors), which standardize the two charts;
 * each chart's limit ``h``: batches of BATCH_PARTS parts are drawn from the log (a block bootstrap: runs of whole
-  regimes at least BLOCK_PARTS long, with replacement, BOOTSTRAP batches); ``h`` is MARGIN times the highest
-  either chart reaches on any of them, and at least the floor at which independent normal errors alarm in one
-  batch in a thousand (times MARGIN).
+  regimes at least BLOCK_PARTS long, with replacement, BOOTSTRAP batches); ``h`` is MARGIN (LEVEL_MARGIN over
+  the levels) times the highest either chart reaches on any of them, and at least the floor at which independent
+  normal errors alarm in one batch in a thousand (times MARGIN).
 
 The workflow stores them in ``predictor.json`` (key ``monitor``).
 """
@@ -27,7 +27,10 @@ from hybridtwin.monitor import chart, regimes
 
 BOOTSTRAP = 400  # batches drawn from the log's regimes
 BATCH_PARTS = 10_000  # parts in each
-MARGIN = 1.25  # the limit over the highest statistic the drawn batches reach
+MARGIN = 1.25  # the limit over the highest statistic the drawn batches reach (within a regime)
+# over the regimes' levels: the levels follow the plant's slow rhythms (shifts, days) that a log of a few shifts shows
+# only a few of; on the tuning plants (seed 33) fresh in-control batches reached 1.4 times the log's highest
+LEVEL_MARGIN = 2.0
 # the floors: MARGIN times the statistic that independent normal errors reach in one batch of 10,000 parts in a
 # thousand (simulated through the same charts, regimes of 50 to 500 parts: 14.1 within a regime, 5.6 over 200
 # regimes' levels); the log's bootstrap cannot go beyond the log's own extremes
@@ -87,7 +90,7 @@ def limits(within: np.ndarray, level: np.ndarray, starts: np.ndarray, seed: int)
         for side, reference in ((0, chart.WITHIN_REFERENCE), (1, chart.LEVEL_REFERENCE)):
             series = np.concatenate([pieces[i][side] for i in chosen])
             highest[side] = max(highest[side], peak(series, reference))
-    return max(FLOOR_WITHIN, MARGIN * highest[0]), max(FLOOR_LEVEL, MARGIN * highest[1])
+    return max(FLOOR_WITHIN, MARGIN * highest[0]), max(FLOOR_LEVEL, LEVEL_MARGIN * highest[1])
 
 
 def constants(log, inputs, residual, z, region, models, seed: int = 0) -> tuple[regimes.Regimes, chart.Constants]:

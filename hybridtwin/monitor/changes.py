@@ -29,6 +29,7 @@ SHARE_MARGIN = 0.02
 BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
+KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
 LEAST_CELL = 10  # judged parts (a tenth of them, thrice) that tell a slope
 MOVED_T = 5.0  # a known cause moved: its slope inside the regimes changed by this many standard errors
@@ -68,10 +69,11 @@ def clocks(frame: pd.DataFrame) -> set[str]:
     return found
 
 
-def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, float, float] | None:
-    """A step of a numeric column to a level it never had in the ``window`` parts before ``start``: (the index
-    it steps at, the level before, the level after), or None."""
-    before, after = values[max(0, start - window) : start], values[start : start + window]
+def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | None = None):
+    """A step of a numeric column to a level it never had in the ``window`` parts before ``start`` and keeps for
+    the ``kept`` parts after it (default ``window``; fewer if the batch ends): (the index it steps at, the level
+    before, the level after), or None."""
+    before, after = values[max(0, start - window) : start], values[start : start + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
     low, high = np.quantile(before, [0.005, 0.995])
@@ -261,7 +263,10 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
             name = fit.candidate.name
             return KNOWN, name, f"the {name} effect changed by {fit.effect_range:.1f} {unit} over the batch"
     physical = physical if physical and found[0] is physical[0] else []  # time came first: it is time
-    steps = _steps(frame, start, timing) if gap < BOUNDARY else {}
+    # a step where the change began: at the start, or where the parts not judged right before it began (a setting
+    # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
+    # properties change at every regime, in control: the new level must last KEPT parts
+    steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -290,13 +295,14 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
     return UNEXPLAINED, None, text + " that explains it"
 
 
-def _steps(frame: pd.DataFrame, start: int, timing: set) -> dict:
-    """The numeric columns (not clocks) that step to a new level at ``start``: column -> (index, before, after)."""
+def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None) -> dict:
+    """The numeric columns (not clocks) that step to a new level at ``start`` (and keep it ``kept`` parts):
+    column -> (index, before, after)."""
     steps = {}
     for column in frame.columns:
         values = frame[column]
         if column not in timing and pd.api.types.is_numeric_dtype(values):
-            step = step_of(values.to_numpy(float), start)
+            step = step_of(values.to_numpy(float), start, kept=kept)
             if step is not None:
                 steps[column] = step
     return steps
