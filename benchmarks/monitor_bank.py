@@ -253,13 +253,14 @@ def main() -> None:
     parser.add_argument("--batches", type=int, default=7, help="in-control batches of 10,000 parts per plant")
     parser.add_argument("--name", default="monitor_bank", help="the results' file name (.csv, .md)")
     args = parser.parse_args()
+    # the commit the run starts at (a commit made while it runs must not be credited with its numbers)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT)
     rows, timings = [], []
     for index in range(args.plants):
         rows += plant_rows(index, args.seed, args.log, args.batches, timings)
     table = pd.DataFrame(rows)
     OUT.mkdir(parents=True, exist_ok=True)
     table.to_csv(OUT / f"{args.name}.csv", index=False)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT)
     text = (f"# Monitor bank\n\n`python benchmarks/monitor_bank.py {' '.join(sys.argv[1:])}` at commit "
             f"{commit.stdout.strip()}\n\n{summary(table, timings[0] if timings else (np.nan, np.nan))}\n")  # fmt: skip
     (OUT / f"{args.name}.md").write_text(text)
