@@ -1,4 +1,4 @@
-"""The monitoring statistic: a two-sided CUSUM of the residual, in units of the error each part's region expects.
+"""The monitoring statistic: CUSUMs of the residual, against what the models and the log's in-control record expect.
 
 Each measured part's residual (measured - recommended prediction) is divided by the in-control error of its
 region: the root mean square of the recommended model's calibration errors there (in support, and out of support
@@ -7,16 +7,18 @@ the error the models already expect there, and is no alarm by itself. A part who
 *extrapolation* (a setting unlike every logged part: no interval) has no in-control error to compare with; it is
 not judged and leaves the statistic as it was.
 
-The standardized residual ``z`` (clipped at :data:`CLIP`, so that one wild part cannot raise an alarm alone) feeds
-the tabular CUSUM (Page 1954) on both sides: ``S+ = max(0, S+ + z - k)``, ``S- = max(0, S- - z - k)``. An
-alarm is raised at the first part where either exceeds the limit ``h``; the change is estimated to start right
-after the alarming side's last zero. ``k`` is an allowance: a settled offset smaller than ``k`` expected errors
-per part is what the models' own error at a new campaign of settings can be, and never adds up; above it, the
-excess adds up part after part. ``k`` is at least :data:`REFERENCE`, more where the production log itself needed
-more to stay in control (:mod:`.calibration`). ``h`` (:data:`LIMIT`) then sets how much excess makes an alarm:
-with ``k = 1`` an offset of 1.5 expected errors alarms after about 20 / 0.5 = 40 parts; on independent
-in-control errors the average run to a false alarm is beyond 10^15 parts (Siegmund's approximation), so an
-in-control false alarm comes from the models' own error at some settings, not from the noise.
+:func:`cusum` is the tabular CUSUM (Page 1954) on both sides of a standardized series ``z`` (clipped at
+:data:`CLIP`, so that one wild part cannot raise an alarm alone): ``S+ = max(0, S+ + z - k)``,
+``S- = max(0, S- - z - k)``; an alarm at the first part where either exceeds the limit ``h``, the change
+estimated to start right after the alarming side's last zero. Run on z itself, as models written before the
+regime charts are, it adds up the models' settled error at a campaign or on a coil, which is no change of the
+plant (on independent errors, ``k = 1`` and ``h = 20`` would alarm once in 10^15 parts; on a plant's autocorrelated
+errors, within a few thousand).
+
+:func:`regime_chart` charts the residual against the in-control process instead (:mod:`.regimes`): inside each
+regime (a run of the same coil, settings and model), each part against the level of the parts before it; across
+regimes, each regime's level against the spread of levels the log shows. Their constants and limits are set on
+the production log (:mod:`.calibration`).
 """
 
 from __future__ import annotations
