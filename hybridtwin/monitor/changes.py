@@ -244,19 +244,7 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
     known = predictor.extension.extension.columns
     timing = clocks(frame)
     if regime is not None:
-        residual, judged, group, scale = regime
-        found = [
-            fit
-            for fit in found
-            if fit.candidate.kind == "time"
-            or set(fit.candidate.columns) & timing
-            or (
-                len(fit.candidate.columns) == 1
-                and pd.api.types.is_numeric_dtype(frame[fit.candidate.columns[0]])
-                and fit.candidate.kind != "group"
-                and moved(slope_change(frame[fit.candidate.columns[0]], residual, judged, group, start), scale)
-            )
-        ]
+        found = _slope_changed(found, frame, start, timing, regime)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
     for fit in found:  # a known cause, a wear drift along a counter among them (a trend: not a step in time)
         if set(fit.candidate.columns) & known and (fit in physical or fit.form.name not in STEPS):
@@ -293,6 +281,22 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
     during = f" (it began during the {gap:,} parts before, which were not judged)" if gap >= BOUNDARY else ""
     text = f"unexplained: a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
     return UNEXPLAINED, None, text + " that explains it"
+
+
+def _slope_changed(found: list, frame: pd.DataFrame, start: int, timing: set, regime) -> list:
+    """The causes found that time explains, or a numeric column the residual follows by a changed slope since
+    the start (``regime``: residual, judged, group, scale): no group, whose levels are the regimes' own."""
+    residual, judged, group, scale = regime
+
+    def holds(fit) -> bool:
+        columns = fit.candidate.columns
+        if fit.candidate.kind == "time" or set(columns) & timing:
+            return True
+        if len(columns) != 1 or fit.candidate.kind == "group" or not pd.api.types.is_numeric_dtype(frame[columns[0]]):
+            return False
+        return moved(slope_change(frame[columns[0]], residual, judged, group, start), scale)
+
+    return [fit for fit in found if holds(fit)]
 
 
 def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None) -> dict:
