@@ -312,3 +312,14 @@ def test_the_command_charts_the_regimes_with_the_constants_the_log_set(regime_pr
     assert stepped.chart.alarmed_by == chart.WITHIN and 250 <= stepped.chart.alarm_at <= 280
     assert abs(stepped.chart.start_at - 250) <= 5 and stepped.change.kind == UNEXPLAINED
     says(words.summary(stepped), "ALARM at part", "within a regime")
+
+
+def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousands_of_parts_before(predictor):
+    from hybridtwin.monitor.changes import _named
+
+    rng = np.random.default_rng(7)
+    frame = pd.DataFrame({"shim": np.r_[np.full(1000, 0.45), np.full(4000, 0.55)] + rng.normal(0, 0.004, 5000)})
+    kind, column, _ = _named([], frame, 1100, predictor, 3.0, "mm", gap=100)  # the parts 1,001-1,100 not judged
+    assert (kind, column) == (NEW, "shim")
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3000)  # 3,000 not judged: too far
+    assert (kind, column) == (UNEXPLAINED, None)

@@ -254,7 +254,9 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
     # a step where the change began: at the start, or where the parts not judged right before it began (a setting
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
-    steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
+    steps = {}
+    if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
+        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
     if physical:
         fit = physical[0]
         name = fit.candidate.name
