@@ -34,7 +34,9 @@ def main(snakemake):
     reach = pipeline.production_reach(production, gate, spec, p.settings["blocks"])
     files.write_json(reach.to_dict(), snakemake.output.reach)
     manifest = predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units)
-    manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level)  # the monitor's allowance
+    # the monitor's regimes and limits, from the whole log (its coil ids and shifts mark the regimes)
+    log = read_checked(snakemake.input.production)
+    manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level, log, spec.inputs, spec.seed, causes)
     files.write_json(manifest, snakemake.output.manifest)
     matched = read_checked(snakemake.input.matched)
     peer_models = {name: peers.load_peer(name, files.read_json(snakemake.input[f"peer_{name}"])) for name in p.peers}

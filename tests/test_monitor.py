@@ -10,8 +10,8 @@ import pytest
 from hybridtwin.answers.predictor import Predictor
 from hybridtwin.cli import main
 from hybridtwin.io.errors import InputError
-from hybridtwin.monitor import calibration, chart, watch, words
-from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, step_of
+from hybridtwin.monitor import calibration, chart, regimes, watch, words
+from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, moved_cause, new_form, step_of
 
 from .conftest import says
 
@@ -62,12 +62,134 @@ def test_parts_not_judged_leave_the_statistic_as_it_was():
     assert chart.cusum(np.r_[np.zeros(10), 100.0], 1.0, 8.0).alarm_at is None  # one wild part is clipped at 4
 
 
-def test_the_allowance_is_the_least_that_keeps_the_logs_own_excursions_under_half_the_limit():
-    assert calibration.allowance(np.zeros(500)) == chart.REFERENCE
-    settled = np.r_[np.zeros(300), np.full(200, 1.5), np.zeros(300)]  # a campaign 1.5 expected errors off
-    k = calibration.allowance(settled, limit=20.0)
-    assert k == pytest.approx(1.45, abs=0.002)  # 200 * (1.5 - k) = 10
-    assert calibration.log_peak(settled, k) < 10.0 <= calibration.log_peak(settled, k - 0.01)
+def test_regimes_begin_where_a_coil_or_shift_changes_or_an_input_jumps_and_not_at_a_timestamp_or_part_id():
+    rng = np.random.default_rng(0)
+    n = 400
+    log = pd.DataFrame(
+        {
+            "time": pd.date_range("2026-01-01", periods=n, freq="5s").astype(str),
+            "serial": [f"P{i}" for i in range(n)],  # an id per part marks no regime
+            "coil": np.repeat(["K1", "K2"], [250, 150]),
+            "shim": np.r_[np.full(100, 0.45), np.full(300, 0.55)] + rng.normal(0, 0.004, n),
+            "temp": np.linspace(20, 60, n) + rng.normal(0, 0.5, n),  # warms: no jump
+        }
+    )
+    found = regimes.Regimes.learn(log, ["shim", "temp"])
+    assert found.columns == ("coil",) and set(found.jumps) == {"shim", "temp"}
+    assert np.flatnonzero(found.starts(log)).tolist() == [0, 100, 250]
+    assert np.flatnonzero(found.starts(log, settings_only=True)).tolist() == [0, 100]
+    assert regimes.Regimes.from_dict(found.to_dict()) == found
+    # the parts of a regime that another model predicts sit at a level of their own
+    labels = regimes.labels(np.array([1, 0, 0, 1, 0, 0], bool), ["a", "a", "b", "a", "b", "a"])
+    assert labels[0] == labels[1] != labels[2] and labels[3] == labels[5] != labels[4] and labels[0] != labels[3]
+
+
+def test_the_within_regime_residual_is_against_the_mean_of_the_parts_before_it_by_hand():
+    residual = np.array([1.0, 3.0, 2.0, 10.0, 5.0, np.nan, 7.0])
+    group = np.array([0, 0, 0, 0, 1, 1, 1])
+    got = regimes.within(residual, group, least=1)
+    # part 1: (3 - 1) / sqrt(2); part 2: (2 - 2) / sqrt(1.5); part 3: (10 - 2) / sqrt(4 / 3); a new regime restarts
+    np.testing.assert_allclose(got[[1, 2, 3, 6]], [2 / np.sqrt(2), 0.0, 8 / np.sqrt(4 / 3), 2 / np.sqrt(2)])
+    assert np.isnan(got[[0, 4, 5]]).all()
+    windowed = regimes.within(residual, group, least=1, window=1)  # the part before only
+    np.testing.assert_allclose(windowed[[2, 3]], [-1 / np.sqrt(2), 8 / np.sqrt(2)])
+    means, counts, at = regimes.levels(residual, group, parts=2, least=1)
+    np.testing.assert_allclose(means, [2.0, 6.0])
+    assert counts.tolist() == [2, 2] and at.tolist() == [1, 6]
+
+
+def _campaigns(rng, n, length, spread):
+    """A log-like series: campaigns of ``length`` parts, each off by its own settled amount (SD ``spread``)."""
+    group = np.arange(n) // length
+    return rng.normal(0, spread, group.max() + 1)[group] + rng.normal(0, 1, n), group
+
+
+CONSTANTS = chart.Constants({}, 1.0, 1.0, 3.0, 13.0, 8.0)
+
+
+def test_settled_campaign_errors_raise_no_alarm_where_a_cusum_for_independent_errors_alarms_at_once():
+    rng = np.random.default_rng(1)
+    residual, group = _campaigns(rng, 10_000, 200, 3.0)  # campaigns 3 noise SDs apart, as out of the support
+    z = residual / np.sqrt(10.0)  # the region's expected error: the root mean square of both
+    assert chart.cusum(z, 1.0, 20.0).alarm_at is not None  # the plain chart: an alarm within the batch
+    quiet = chart.regime_chart(residual, z, np.full(10_000, "r"), group, CONSTANTS)
+    assert quiet.alarm_at is None and quiet.statistic.max() < chart.LIMIT
+
+
+def test_a_step_inside_a_regime_alarms_within_a_few_dozen_parts_and_is_dated():
+    rng = np.random.default_rng(2)
+    residual, group = _campaigns(rng, 10_000, 400, 3.0)
+    residual[3050:] += 1.5  # 1.5 noise SDs, 50 parts into a campaign
+    z = residual / np.sqrt(10.0)
+    result = chart.regime_chart(residual, z, np.full(10_000, "r"), group, CONSTANTS)
+    assert result.alarmed_by == chart.WITHIN and 3050 <= result.alarm_at <= 3050 + 60
+    assert abs(result.start_at - 3050) <= 10 and result.direction == 1
+    assert result.statistic[result.alarm_at] > chart.LIMIT >= result.statistic[: result.alarm_at].max()
+
+
+def test_a_shift_that_every_new_regime_carries_alarms_on_the_regimes_levels():
+    rng = np.random.default_rng(3)
+    residual, group = _campaigns(rng, 10_000, 100, 1.0)
+    residual[3000:] += 4.0  # begins with a campaign: the within-regime chart cannot see it
+    z = residual / np.sqrt(2.0)
+    result = chart.regime_chart(residual, z, np.full(10_000, "r"), group, chart.Constants({}, 1.0, 0.7, 0.7, 13, 8))
+    assert result.alarmed_by == chart.LEVEL and 3000 < result.alarm_at < 4000 and result.start_at % 100 == 0
+
+
+def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor():
+    rng = np.random.default_rng(4)
+    residual, group = _campaigns(rng, 8000, 200, 3.0)
+    starts = np.r_[True, group[1:] != group[:-1]]
+    log = pd.DataFrame({"campaign": [f"C{g:03d}" for g in group]})
+    z = residual / np.sqrt(10.0)
+    found, fitted = calibration.constants(log, [], residual, z, np.full(8000, "r"), np.full(8000, "m"))
+    assert found.columns == ("campaign",)
+    assert fitted.within_scale["r"] == pytest.approx(1.0, abs=0.05) and fitted.level_between == pytest.approx(
+        0.95, abs=0.3
+    )
+    assert fitted.within_limit == calibration.FLOOR_WITHIN  # independent noise inside the regimes: the floor holds
+    # a jump inside regimes (a campaign change the log's columns do not mark) raises the limit
+    jumped = residual + np.where((np.arange(8000) % 200) >= 100, 3.0, 0.0)
+    _, raised = calibration.constants(log, [], jumped, jumped / np.sqrt(10.0), np.full(8000, "r"), np.full(8000, "m"))
+    within = chart.within_steps(jumped, np.full(8000, "r"), group, raised)
+    assert raised.within_limit > calibration.FLOOR_WITHIN and raised.within_limit >= calibration.peak(within, 0.5)
+    assert calibration.limits(within, np.full(8000, np.nan), starts, 0)[0] == pytest.approx(raised.within_limit)
+
+
+def test_the_floors_keep_independent_noise_quiet_through_the_same_charts():
+    rng = np.random.default_rng(6)
+    within, levels = [], []
+    for _ in range(200):  # batches of 10,000 parts, regimes of 50 to 500
+        group = np.repeat(np.arange(100), rng.integers(50, 500, 100))[:10_000]
+        within.append(calibration.peak(regimes.within(rng.normal(0, 1, 10_000), group, 5, chart.WITHIN_WINDOW), 0.5))
+        levels.append(calibration.peak(rng.normal(0, 1, 200), chart.LEVEL_REFERENCE))
+    assert max(within) < calibration.FLOOR_WITHIN and max(levels) < calibration.FLOOR_LEVEL
+    assert np.quantile(within, 0.99) > calibration.FLOOR_WITHIN / 2  # the floor is no wild guess either
+
+
+def test_a_known_cause_moved_when_the_residual_follows_it_by_another_slope_since_the_start():
+    rng = np.random.default_rng(5)
+    n = 6000
+    residual, group = _campaigns(rng, n, 150, 3.0)
+    temperature = 40 + 10 * np.sin(np.arange(n) / 700) + rng.normal(0, 0.5, n)
+    frame = pd.DataFrame({"temp": temperature})
+    judged = np.ones(n, bool)
+    reference = {"temp": [0.0, 0.02]}
+    assert (
+        moved_cause(frame, residual + np.where(np.arange(n) >= 2000, 3.0, 0.0), judged, group, 2000, reference, 1.0)
+        is None
+    )
+    grown = residual + np.where(np.arange(n) >= 2000, 0.4 * (temperature - 30), 0.0)
+    name, change = moved_cause(frame, grown, judged, group, 2000, reference, 1.0)
+    assert name == "temp" and change == pytest.approx(
+        0.4 * np.ptp(np.quantile(temperature[2000:], [0.05, 0.95])), rel=0.3
+    )
+
+
+def test_coil_ids_of_a_new_form_name_a_supplier_and_a_shift_label_does_not():
+    ids = pd.Series([f"K{1000 + i // 200}" for i in range(3000)] + [f"NEW-K{2000 + i // 200}" for i in range(2000)])
+    assert new_form(ids, 3400) == 3000 and new_form(ids, 2000) is None  # found late: the change began there
+    assert new_form(pd.Series(np.repeat(["A", "B", "C"], [1000, 1000, 3000])), 2100) is None
 
 
 def test_expected_error_is_the_root_mean_square_of_the_regions_calibration(predictor):
@@ -108,6 +230,8 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     at, low, high = step_of(values, 402)
     assert abs(at - 400) <= 2 and low == pytest.approx(0.45, abs=0.01) and high == pytest.approx(0.55, abs=0.01)
     assert step_of(np.linspace(20, 60, 800) + rng.normal(0, 0.3, 800), 400) is None
+    campaign = np.r_[np.full(400, 0.45), np.full(300, 0.55), np.full(1100, 0.45)] + rng.normal(0, 0.004, 1800)
+    assert step_of(campaign, 400) is not None and step_of(campaign, 400, kept=1000) is None  # it did not last
     frame = pd.DataFrame({"strokes": np.arange(10), "t": pd.date_range("2026-01-01", periods=10).astype(str)})
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
 
@@ -162,3 +286,40 @@ def test_bad_batches_stop_with_one_line(predictor, parts, tmp_path, capsys, chan
     assert main(["monitor", str(path), "--models", MODELS, "-o", str(tmp_path / "out.csv")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: batch file") and err.count("\n") == 1 and not (tmp_path / "out.csv").exists()
+
+
+@pytest.fixture(scope="module")
+def regime_predictor(parts):
+    """The stored run with the regime charts' constants set on the head of its log (as prediction_intervals sets
+    them on the whole log's honest residuals)."""
+    loaded = Predictor.load(MODELS)
+    plain = watch.watch(loaded, parts, explain=False)
+    table = plain.table
+    models = loaded.intervals.recommend(loaded.where(loaded.checked(parts)).region)
+    found, fitted = calibration.constants(
+        parts, loaded.inputs, table["residual"].to_numpy(float), plain.chart.z, table["interval_region"], models
+    )
+    loaded.spec["monitor"] = {"regimes": found.to_dict(), **fitted.to_dict(), "slopes": {}, "limit": chart.LIMIT}
+    return loaded
+
+
+def test_the_command_charts_the_regimes_with_the_constants_the_log_set(regime_predictor, parts):
+    quiet = watch.watch(regime_predictor, parts)
+    assert quiet.chart.alarm_at is None and quiet.chart.group is not None
+    batch = parts.copy()
+    batch.loc[250:, "draw_in_mm"] += 3 * 2.41  # inside a coil
+    stepped = watch.watch(regime_predictor, batch)
+    assert stepped.chart.alarmed_by == chart.WITHIN and 250 <= stepped.chart.alarm_at <= 280
+    assert abs(stepped.chart.start_at - 250) <= 5 and stepped.change.kind == UNEXPLAINED
+    says(words.summary(stepped), "ALARM at part", "within a regime")
+
+
+def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousands_of_parts_before(predictor):
+    from hybridtwin.monitor.changes import _named
+
+    rng = np.random.default_rng(7)
+    frame = pd.DataFrame({"shim": np.r_[np.full(1000, 0.45), np.full(4000, 0.55)] + rng.normal(0, 0.004, 5000)})
+    kind, column, _ = _named([], frame, 1100, predictor, 3.0, "mm", gap=100)  # the parts 1,001-1,100 not judged
+    assert (kind, column) == (NEW, "shim")
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3000)  # 3,000 not judged: too far
+    assert (kind, column) == (UNEXPLAINED, None)

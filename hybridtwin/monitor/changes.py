@@ -29,7 +29,11 @@ SHARE_MARGIN = 0.02
 BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
+KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
+LEAST_CELL = 10  # judged parts (a tenth of them, thrice) that tell a slope
+MOVED_T = 5.0  # a known cause moved: its slope inside the regimes changed by this many standard errors
+MOVED_EFFECT = 1.0  # and by at least this many within-regime scatters over the column's range since the start
 KNOWN, NEW, UNEXPLAINED = "known cause", "new candidate", "unexplained"
 
 
@@ -65,10 +69,11 @@ def clocks(frame: pd.DataFrame) -> set[str]:
     return found
 
 
-def step_of(values: np.ndarray, start: int, window: int = WINDOW) -> tuple[int, float, float] | None:
-    """A step of a numeric column to a level it never had in the ``window`` parts before ``start``: (the index
-    it steps at, the level before, the level after), or None."""
-    before, after = values[max(0, start - window) : start], values[start : start + window]
+def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | None = None):
+    """A step of a numeric column to a level it never had in the ``window`` parts before ``start`` and keeps for
+    the ``kept`` parts after it (default ``window``; fewer if the batch ends): (the index it steps at, the level
+    before, the level after), or None."""
+    before, after = values[max(0, start - window) : start], values[start : start + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
     low, high = np.quantile(before, [0.005, 0.995])
@@ -112,6 +117,77 @@ def boundary_of(values: pd.Series, start: int, tolerance: int = BOUNDARY) -> int
     return int(near[np.argmin(np.abs(near - start))]) if len(near) else None
 
 
+def slope(x, residual, cells) -> tuple[float, float]:
+    """The least-squares slope of ``residual`` on ``x`` and its standard error clustered by ``cells`` (the parts
+    of a regime share the models' settled error there, not only the noise)."""
+    x, residual = np.asarray(x, float), np.asarray(residual, float)
+    xc, yc = x - x.mean(), residual - residual.mean()
+    xx = float(np.sum(xc**2))
+    if len(x) < 3 or xx <= 0:
+        return 0.0, float("inf")
+    fitted = float(np.sum(xc * yc) / xx)
+    scores = pd.Series(xc * (yc - fitted * xc)).groupby(np.asarray(cells)).sum().to_numpy()
+    return fitted, float(np.sqrt(np.sum(scores**2)) / xx)
+
+
+def slope_change(x, residual, judged, group, start: int, log=None) -> tuple[float, float]:
+    """How differently the residual follows ``x`` since ``start`` than in control: (the change over the range of
+    x since the start, in standard errors clustered by regime). In control is the batch's parts before the start,
+    pooled with ``log`` (the log's slope and its standard error) if given; (0, 0) without enough parts."""
+    after = judged & (np.arange(len(residual)) >= start)
+    before = judged & ~after
+    if after.sum() < 3 * LEAST_CELL:
+        return 0.0, 0.0
+    x = np.asarray(x, float)
+    slope_after, error_after = slope(x[after], residual[after], group[after])
+    known = [tuple(log)] if log is not None else []
+    if before.sum() >= 3 * LEAST_CELL:
+        known.append(slope(x[before], residual[before], group[before]))
+    weights = np.array([1.0 / error**2 if np.isfinite(error) and error > 0 else 0.0 for _, error in known])
+    if not weights.sum() or not np.isfinite(error_after):
+        return 0.0, 0.0
+    in_control = float(np.sum(weights * [value for value, _ in known]) / weights.sum())
+    low, high = np.quantile(x[after], [0.05, 0.95])
+    error = float(np.hypot(error_after, 1.0 / np.sqrt(weights.sum())))
+    return (slope_after - in_control) * (high - low), abs(slope_after - in_control) / error if error > 0 else 0.0
+
+
+def moved(change: tuple[float, float], scale: float) -> bool:
+    """A slope change that counts: MOVED_T standard errors and MOVED_EFFECT within-regime scatters."""
+    return change[1] > MOVED_T and abs(change[0]) > MOVED_EFFECT * scale
+
+
+def moved_cause(frame: pd.DataFrame, residual, judged, group, start: int, reference: dict, scale: float):
+    """A known cause (a numeric column of the models' extension) whose effect moved at ``start``: since the start
+    the residual follows the column by another slope than in control (the log's, stored with the models in
+    ``reference``: column -> (slope, standard error), pooled with the batch's parts before the start).
+    (column, the effect's change over the column's range since the start) or None."""
+    best = None
+    for column, log in reference.items():
+        if column in frame:
+            change = slope_change(frame[column], residual, judged, group, start, log)
+            if moved(change, scale) and (best is None or change[1] > best[2]):
+                best = (column, change[0], change[1])
+    return None if best is None else best[:2]
+
+
+def new_form(values: pd.Series, start: int) -> int | None:
+    """The part (index) from which a text column's values (coil ids) take a form never seen before in the batch
+    (digits aside: a new supplier's ids) and keep it, if that is before ``start`` or within WINDOW parts after it
+    (a change that begins with a new regime is found late), else None."""
+    if pd.api.types.is_numeric_dtype(values) or len(values) < 2:
+        return None
+    forms = values.astype(str).str.replace(r"\d", "0", regex=True).to_numpy()
+    if len(set(forms.tolist())) * 3 > values.nunique():  # not ids (numbers in a form) but labels (a shift A, B, C)
+        return None
+    seen = pd.Series(forms).groupby(forms).cumcount().to_numpy() == 0  # the first part of each form
+    first = np.flatnonzero(seen)[1:]
+    for at in first[first >= MIN_BEFORE]:
+        if at <= start + WINDOW and np.mean(~np.isin(forms[at:], forms[:at])) >= 0.9:
+            return int(at)
+    return None
+
+
 def _found_causes(frame: pd.DataFrame, residual: np.ndarray, inputs, unit: str, seed: int) -> list:
     from hybridtwin.diagnosis import Settings, diagnose
 
@@ -140,7 +216,12 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     outside = float(np.mean(not_validated[start:]))
     common = {"shift": shift, "start_part": start + 1, "n_after": int(after.sum()), "outside_support": outside}
     gap = start - (int(np.flatnonzero(judged[:start])[-1]) + 1 if judged[:start].any() else 0)
-    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap)
+    moved_known, regime = None, None
+    if getattr(result, "group", None) is not None:  # the regime charts
+        regime = (residual, judged, result.group, result.scale)
+        reference = predictor.spec.get("monitor", {}).get("slopes", {})
+        moved_known = moved_cause(frame, residual, judged, result.group, start, reference, result.scale)
+    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap, moved_known, regime)
     proposed = {}
     # the change comes with settings outside the support: more of the parts since the start lie there than before
     if outside > 0.5 and outside - (float(np.mean(not_validated[:start])) if start >= MIN_BEFORE else 0.0) > 0.25:
@@ -148,18 +229,34 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     return Change(kind, text, column, proposed=proposed, **common)
 
 
-def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float, unit: str, gap: int = 0):
+def _named(found: list, frame, start: int, predictor, shift: float, unit: str, gap=0, known_moved=None, regime=None):
     """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
-    not judged (the change began during them: no setting or coil can be dated to the start)."""
+    not judged (the change began during them: no setting or coil can be dated to the start).
+
+    With the regime charts, ``known_moved``: a known cause whose slope changed (:func:`moved_cause`); ``regime``:
+    (residual, judged, group, scale). The settled levels of the regimes are the models' own error, which a coil id
+    or a setting of the campaigns "explains" before the start as well as after it: a cause the diagnosis found
+    must then follow the residual by another slope since the start than before it (a coil id cannot), and a coil
+    that begins near the start is no cause (the charts begin a regime there and see no change at it)."""
+    if known_moved is not None:
+        name, change = known_moved
+        return KNOWN, name, f"the {name} effect changed by {change:+.1f} {unit} over its range since part {start + 1:,}"
     known = predictor.extension.extension.columns
     timing = clocks(frame)
+    if regime is not None:
+        found = _slope_changed(found, frame, start, timing, regime)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
     for fit in found:  # a known cause, a wear drift along a counter among them (a trend: not a step in time)
         if set(fit.candidate.columns) & known and (fit in physical or fit.form.name not in STEPS):
             name = fit.candidate.name
             return KNOWN, name, f"the {name} effect changed by {fit.effect_range:.1f} {unit} over the batch"
     physical = physical if physical and found[0] is physical[0] else []  # time came first: it is time
-    steps = _steps(frame, start, timing) if gap < BOUNDARY else {}
+    # a step where the change began: at the start, or where the parts not judged right before it began (a setting
+    # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
+    # properties change at every regime, in control: the new level must last KEPT parts
+    steps = {}
+    if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
+        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -171,7 +268,14 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
         return NEW, name, _step_text(name, steps[name])
-    for column in frame.columns if gap < BOUNDARY else []:  # or a new coil (lot, supplier) began where it started
+    for column in frame.columns:  # coil ids (lots) of a form never seen before: a new supplier
+        at = new_form(frame[column], start) if column not in timing else None
+        if at is not None:
+            text = (
+                f"a change with {column}: since part {at + 1:,} its values take a new form ({frame[column].iloc[at]})"
+            )
+            return NEW, column, text + f"; the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
+    for column in frame.columns if gap < BOUNDARY and regime is None else []:  # a new coil began where it started
         at = boundary_of(frame[column], start) if column not in timing else None
         if at is not None:
             text = f"a change with {column}: since part {at + 1:,} ({frame[column].iloc[at]}) the parts sit "
@@ -181,13 +285,30 @@ def _named(found: list, frame: pd.DataFrame, start: int, predictor, shift: float
     return UNEXPLAINED, None, text + " that explains it"
 
 
-def _steps(frame: pd.DataFrame, start: int, timing: set) -> dict:
-    """The numeric columns (not clocks) that step to a new level at ``start``: column -> (index, before, after)."""
+def _slope_changed(found: list, frame: pd.DataFrame, start: int, timing: set, regime) -> list:
+    """The causes found that time explains, or a numeric column the residual follows by a changed slope since
+    the start (``regime``: residual, judged, group, scale): no group, whose levels are the regimes' own."""
+    residual, judged, group, scale = regime
+
+    def holds(fit) -> bool:
+        columns = fit.candidate.columns
+        if fit.candidate.kind == "time" or set(columns) & timing:
+            return True
+        if len(columns) != 1 or fit.candidate.kind == "group" or not pd.api.types.is_numeric_dtype(frame[columns[0]]):
+            return False
+        return moved(slope_change(frame[columns[0]], residual, judged, group, start), scale)
+
+    return [fit for fit in found if holds(fit)]
+
+
+def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None) -> dict:
+    """The numeric columns (not clocks) that step to a new level at ``start`` (and keep it ``kept`` parts):
+    column -> (index, before, after)."""
     steps = {}
     for column in frame.columns:
         values = frame[column]
         if column not in timing and pd.api.types.is_numeric_dtype(values):
-            step = step_of(values.to_numpy(float), start)
+            step = step_of(values.to_numpy(float), start, kept=kept)
             if step is not None:
                 steps[column] = step
     return steps

@@ -1,4 +1,4 @@
-"""The monitoring statistic: a two-sided CUSUM of the residual, in units of the error each part's region expects.
+"""The monitoring statistic: CUSUMs of the residual, against what the models and the log's in-control record expect.
 
 Each measured part's residual (measured - recommended prediction) is divided by the in-control error of its
 region: the root mean square of the recommended model's calibration errors there (in support, and out of support
@@ -7,16 +7,18 @@ the error the models already expect there, and is no alarm by itself. A part who
 *extrapolation* (a setting unlike every logged part: no interval) has no in-control error to compare with; it is
 not judged and leaves the statistic as it was.
 
-The standardized residual ``z`` (clipped at :data:`CLIP`, so that one wild part cannot raise an alarm alone) feeds
-the tabular CUSUM (Page 1954) on both sides: ``S+ = max(0, S+ + z - k)``, ``S- = max(0, S- - z - k)``. An
-alarm is raised at the first part where either exceeds the limit ``h``; the change is estimated to start right
-after the alarming side's last zero. ``k`` is an allowance: a settled offset smaller than ``k`` expected errors
-per part is what the models' own error at a new campaign of settings can be, and never adds up; above it, the
-excess adds up part after part. ``k`` is at least :data:`REFERENCE`, more where the production log itself needed
-more to stay in control (:mod:`.calibration`). ``h`` (:data:`LIMIT`) then sets how much excess makes an alarm:
-with ``k = 1`` an offset of 1.5 expected errors alarms after about 20 / 0.5 = 40 parts; on independent
-in-control errors the average run to a false alarm is beyond 10^15 parts (Siegmund's approximation), so an
-in-control false alarm comes from the models' own error at some settings, not from the noise.
+:func:`cusum` is the tabular CUSUM (Page 1954) on both sides of a standardized series ``z`` (clipped at
+:data:`CLIP`, so that one wild part cannot raise an alarm alone): ``S+ = max(0, S+ + z - k)``,
+``S- = max(0, S- - z - k)``; an alarm at the first part where either exceeds the limit ``h``, the change
+estimated to start right after the alarming side's last zero. Run on z itself, as models written before the
+regime charts are, it adds up the models' settled error at a campaign or on a coil, which is no change of the
+plant (on independent errors, ``k = 1`` and ``h = 20`` would alarm once in 10^15 parts; on a plant's autocorrelated
+errors, within a few thousand).
+
+:func:`regime_chart` charts the residual against the in-control process instead (:mod:`.regimes`): inside each
+regime (a run of the same coil, settings and model), each part against the level of the parts before it; across
+regimes, each regime's level against the spread of levels the log shows. Their constants and limits are set on
+the production log (:mod:`.calibration`).
 """
 
 from __future__ import annotations
@@ -68,6 +70,9 @@ class Chart:
     alarm_at: int | None  # index of the first part in alarm
     start_at: int | None  # index of the part the change is estimated to start at
     direction: int  # +1: the plant measures more than the models expect; -1: less; 0: no alarm
+    alarmed_by: str = ""  # which chart alarmed (WITHIN or LEVEL; empty: the plain chart, or no alarm)
+    group: np.ndarray | None = None  # each part's regime and model (the regime charts), or None (the plain chart)
+    scale: float = float("nan")  # the within-regime scatter the log showed (the target's unit; the regime charts)
 
     @property
     def statistic(self) -> np.ndarray:
@@ -98,4 +103,86 @@ def cusum(z, reference: float = REFERENCE, limit: float = LIMIT, clip: float = C
     judged_from = np.flatnonzero(~np.isnan(z[start : at + 1]))
     return Chart(
         z, up, down, limit, reference, at, start + int(judged_from[0]) if len(judged_from) else start, direction
+    )
+
+
+# ---------------------------------------------------------------- the chart of the in-control process (regimes)
+
+WITHIN, LEVEL = "within a regime", "regime levels"
+WITHIN_REFERENCE = 0.5  # k of the within-regime chart, in SDs of the within-regime scatter
+LEVEL_REFERENCE = 1.0  # k of the regime-level chart, in SDs of a regime's level (neighbouring regimes are alike)
+LEAST_WITHIN = 5  # judged parts of a regime that set its level before the within-regime chart judges a part
+WITHIN_WINDOW = 200  # the within-regime level: the mean of at most this many judged parts before (a slow trend)
+LEVEL_PARTS = 50  # a regime's level: the mean z of its first this-many judged parts
+LEAST_LEVEL = 5  # a regime with fewer judged parts has no level
+
+
+@dataclass(frozen=True)
+class Constants:
+    """The regime charts' constants, calibrated on the production log (:mod:`.calibration`)."""
+
+    within_scale: dict  # interval region -> SD of the self-starting within-regime residual (target's unit)
+    pooled_scale: float  # the same over every region (a region the log did not show)
+    level_within: float  # SD of z inside a regime
+    level_between: float  # SD of the regimes' levels in z beyond what the scatter inside them gives
+    within_limit: float
+    level_limit: float
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Constants":
+        return cls(**{name: data[name] for name in cls.__dataclass_fields__})
+
+
+def within_steps(residual, region, group, constants: Constants) -> np.ndarray:
+    """Each part's self-starting within-regime residual in SDs of the log's within-regime scatter (NaN: not
+    judged, or among the first parts of its regime)."""
+    from hybridtwin.monitor.regimes import within
+
+    region = np.asarray(region, object)
+    scale = np.full(len(region), constants.pooled_scale)
+    for name, value in constants.within_scale.items():
+        scale[region == name] = value
+    return within(residual, group, LEAST_WITHIN, WITHIN_WINDOW) / scale
+
+
+def level_steps(z, group, constants: Constants) -> np.ndarray:
+    """Per part, NaN except at the part where a regime's level becomes known: there, the level in SDs of the
+    log's regime levels (for that many parts)."""
+    from hybridtwin.monitor.regimes import levels
+
+    means, counts, at = levels(z, group, LEVEL_PARTS, LEAST_LEVEL)
+    out = np.full(len(np.asarray(z)), np.nan)
+    out[at] = means / np.sqrt(constants.level_between**2 + constants.level_within**2 / counts)
+    return out
+
+
+def regime_chart(residual, z, region, group, constants: Constants) -> Chart:
+    """The two charts of the in-control process, each a two-sided CUSUM scaled so that its limit is LIMIT:
+
+    * within a regime, each judged part's residual against the level of the judged parts before it in its regime
+      (a step in the middle of a campaign or a coil: found within a few dozen parts);
+    * across regimes, each regime's level against the spread of levels the log shows (a change that begins with
+      a new coil, a new setting, or a drift that every new regime carries on).
+
+    ``group``: each part's regime and recommended model (:func:`regimes.labels`). The alarm is the first part at
+    which either passes its limit."""
+    group = np.asarray(group)
+    residual = np.where(np.isnan(np.asarray(z, float)), np.nan, np.asarray(residual, float))
+    inner = cusum(within_steps(residual, region, group, constants), WITHIN_REFERENCE, constants.within_limit)
+    outer = cusum(level_steps(z, group, constants), LEVEL_REFERENCE, constants.level_limit)
+    a, b = LIMIT / constants.within_limit, LIMIT / constants.level_limit
+    up, down = np.maximum(inner.up * a, outer.up * b), np.maximum(inner.down * a, outer.down * b)
+    z = np.asarray(z, float)
+    candidates = [(c.alarm_at, name, c) for name, c in ((WITHIN, inner), (LEVEL, outer)) if c.alarm_at is not None]
+    if not candidates:
+        return Chart(z, up, down, LIMIT, WITHIN_REFERENCE, None, None, 0, "", group, constants.pooled_scale)
+    at, name, alarmed = min(candidates, key=lambda item: item[0])
+    start = alarmed.start_at
+    if name == LEVEL:  # a regime's level is known at its last counted part: the change began with the regime
+        start = int(np.flatnonzero((group == group[start]) & ~np.isnan(z))[0])
+    return Chart(
+        z, up, down, LIMIT, WITHIN_REFERENCE, at, start, alarmed.direction, name, group, constants.pooled_scale
     )

@@ -19,7 +19,7 @@ def monitor(watched, title: str = ""):
     if (~judged).any():
         top.scatter(part[~judged], residual[~judged], s=3, color="0.7", alpha=0.4, label="not judged (extrapolation)")
     top.axhline(0, color="k", lw=0.8)
-    bottom.plot(part, chart.statistic, color="C3", lw=1.2, label="statistic (CUSUM, expected errors)")
+    bottom.plot(part, chart.statistic, color="C3", lw=1.2, label="statistic (CUSUMs, each scaled to the limit)")
     bottom.axhline(chart.limit, color="k", ls="--", lw=1, label=f"limit {chart.limit:g}")
     if chart.alarm_at is not None:
         for axis in (top, bottom):

@@ -26,6 +26,7 @@ from hybridtwin.models.batches import available_cores
 from hybridtwin.models.registry import RECOMMENDED_COLUMN
 from hybridtwin.monitor import chart
 from hybridtwin.monitor.changes import Change, what_changed
+from hybridtwin.monitor.regimes import Regimes, labels
 
 # the columns the monitor adds to the batch's own (a contract: docs/monitor.md)
 COLUMNS = (
@@ -121,6 +122,15 @@ class Watched:
         return ~np.isnan(self.chart.z)
 
 
+def charted(stored: dict, batch: pd.DataFrame, residual, z, region, models) -> chart.Chart:
+    """The chart over the batch: the regime charts with the constants the log set (predictor.json, key
+    ``monitor``); models written before them, the plain CUSUM of z with their allowance (or the floor)."""
+    if "regimes" in stored:
+        group = labels(Regimes.from_dict(stored["regimes"]).starts(batch), models)
+        return chart.regime_chart(residual, z, region, group, chart.Constants.from_dict(stored))
+    return chart.cusum(z, stored.get("allowance", chart.REFERENCE), stored.get("limit", chart.LIMIT))
+
+
 def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -> Watched:
     """Chart ``batch`` against the models; after an alarm (``explain``), say what changed."""
     target = predictor.spec["target"]
@@ -133,8 +143,8 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     expected = chart.expected_error(predictor.intervals, answers["recommended_model"], where.region.interval)
     judged = (np.asarray(where.trust) != EXTRAPOLATION) & np.isfinite(expected) & (expected > 0)
     z = np.where(judged, residual / np.where(judged, expected, 1.0), np.nan)
-    stored = predictor.spec.get("monitor", {})  # the allowance the log needed (models written before it: the floor)
-    result = chart.cusum(z, stored.get("allowance", chart.REFERENCE), stored.get("limit", chart.LIMIT))
+    models = answers["recommended_model"].to_numpy(object)
+    result = charted(predictor.spec.get("monitor", {}), batch, residual, z, where.region.interval, models)
     table = batch.reset_index(drop=True).copy()
     added = {
         "part": np.arange(1, len(batch) + 1),

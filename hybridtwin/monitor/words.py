@@ -24,9 +24,11 @@ def headline(watched) -> str:
             f"{float(chart.statistic.max()) if n else 0.0:.1f}, limit {chart.limit:g}; {judged:,} parts judged)"
         )
     side = "more" if chart.direction > 0 else "less"
+    which = f", the chart {chart.alarmed_by}" if chart.alarmed_by else ""
     return (
         f"ALARM at part {chart.alarm_at + 1:,}: the plant measures {side} than the models expect, since about "
-        f"part {chart.start_at + 1:,} (statistic above its limit {chart.limit:g}; {judged:,} of {n:,} parts judged)"
+        f"part {chart.start_at + 1:,} (statistic above its limit {chart.limit:g}{which}; {judged:,} of {n:,} parts "
+        "judged)"
     )
 
 
@@ -75,6 +77,18 @@ def summary(watched) -> str:
     return "\n".join(lines)
 
 
+def statistic_row(result) -> str:
+    if result.group is None:  # models stored before the regime charts: the plain CUSUM of z
+        return f"| statistic: allowance k, limit h | {result.reference:g}, {result.limit:g} expected errors |"
+    from hybridtwin.monitor.chart import LEVEL_REFERENCE, WITHIN_REFERENCE
+
+    return (
+        f"| statistic | the higher of two CUSUMs, each scaled so that its limit (set on the log) is {result.limit:g}: "
+        f"within a regime (k = {WITHIN_REFERENCE:g} within-regime SDs) and over the regimes' levels "
+        f"(k = {LEVEL_REFERENCE:g} level SDs) |"
+    )
+
+
 def markdown(watched, batch_name: str) -> str:
     """monitor.md: the same, for the report and beside the output table."""
     table = watched.table
@@ -87,7 +101,7 @@ def markdown(watched, batch_name: str) -> str:
         f"| parts judged | {int(judged.sum()):,} |",
         f"| mean residual of the judged parts | {np.mean(residual[judged]) if judged.any() else float('nan'):+.2f} "
         f"{watched.unit} |",
-        f"| statistic: allowance k, limit h | {watched.chart.reference:g}, {watched.chart.limit:g} expected errors |",
+        statistic_row(watched.chart),
     ]
     text = [f"# Monitor: {batch_name}", "", headline(watched) + ".", ""]
     if watched.change is not None:
