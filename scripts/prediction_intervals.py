@@ -24,7 +24,9 @@ def main(snakemake):
     level = p.settings["level"]
     causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
     columns = [*spec.inputs, *sorted(causes - set(spec.inputs))]
-    production = read_checked(snakemake.input.production, columns)
+    # read once: the monitor's regimes need every column of the log (its ids and shifts), the rest these
+    log = read_checked(snakemake.input.production)
+    production = log[[name for name in log.columns if name in set(columns)]]
     units = {name: unit_of(name, p.input_units) for name in columns}
     result = pipeline.calibrate(predictions, production, doe, spec, threshold, p.settings, truth, units)
     files.write_csv(result.table, snakemake.output.table)
@@ -34,8 +36,6 @@ def main(snakemake):
     reach = pipeline.production_reach(production, gate, spec, p.settings["blocks"])
     files.write_json(reach.to_dict(), snakemake.output.reach)
     manifest = predictor.manifest(doe, result, {**settings, "threshold": threshold}, typical, units)
-    # the monitor's regimes and limits, from the whole log (its coil ids and shifts mark the regimes)
-    log = read_checked(snakemake.input.production)
     manifest["monitor"] = monitor.calibrate(predictions["measured"], result, level, log, spec.inputs, spec.seed, causes)
     files.write_json(manifest, snakemake.output.manifest)
     matched = read_checked(snakemake.input.matched)

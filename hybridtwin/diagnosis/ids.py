@@ -23,7 +23,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from hybridtwin.diagnosis.candidates import Candidate
-from hybridtwin.diagnosis.fits import Fit, Rules
+from hybridtwin.diagnosis.fits import Fit, Rules, is_significant
 from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.naming import between_level_ss
 from hybridtwin.diagnosis.wording import INPUT_SURFACE
@@ -53,11 +53,8 @@ def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time")) -> lis
     """The smooth candidates that may account for an id's offsets: significant on their own but for the margin
     (too small to be named alone), best first; of ``kinds`` (the input surface holds the inputs and their
     products)."""
-    usable = [
-        fit
-        for fit in fits
-        if fit.candidate.kind in kinds and fit.p_value < rules.settings.alpha / max(1, rules.n_tests) and fit.score < 0
-    ]
+    but_for_margin = [fit for fit in fits if is_significant(fit, rules.n_tests, rules.settings, min_effect=0.0)]
+    usable = [fit for fit in but_for_margin if fit.candidate.kind in kinds]
     return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
 
 
