@@ -4,9 +4,11 @@
 
 1. Installs Debian's ``slurm-wlm`` and ``munge`` (no daemon is started by the install) and the pinned
    executor plugin (``requirements-slurm.txt``).
-2. Starts a cluster of one node, this machine, from a config of its own in a temporary folder (nothing in
-   /etc/slurm is written): ``munged``, ``slurmctld`` and ``slurmd``. The node is declared with the CPUs
-   and memory ``slurmd -C`` finds, in one partition named ``compute``, the name the shipped profile uses.
+2. Starts a cluster of one node, this machine: ``munged``, ``slurmctld`` and ``slurmd``, with their state,
+   logs and sockets in a temporary folder, and a ``/etc/slurm/slurm.conf`` written here and deleted at the
+   end (the job steps' ``srun`` reads SLURM's config from there: the pinned jobstep plugin drops
+   ``SLURM_CONF`` from a job's environment). The node is declared with the CPUs and memory ``slurmd -C``
+   finds, in one partition named ``compute``, the name the shipped profile uses.
 3. Runs the demo workflow with ``tuning.workers: 2`` through ``profiles/slurm``, changed only where this
    cluster needs it (the log lists each change): no account, no job asking for more CPUs or memory than
    the node has, the two tuning workers at once, status by ``squeue`` every few seconds.
@@ -20,7 +22,7 @@
 
 The runs are in ``runs/slurm_local/`` (``slurm/`` and ``local/``, each with its Snakemake log); this
 script's log goes to ``benchmarks/results/slurm_local.log``. It refuses to start where SLURM or munge
-daemons already run.
+daemons already run, or where /etc/slurm/slurm.conf exists.
 """
 
 from __future__ import annotations
@@ -48,6 +50,8 @@ PROFILE = ROOT / "profiles/slurm/config.yaml"
 WORKERS = 2
 DAEMONS = ("munged", "slurmctld", "slurmd", "slurmstepd")
 POLICY = Path("/usr/sbin/policy-rc.d")
+# where SLURM's commands look for their config when SLURM_CONF is not set: a job's srun does
+CONF = Path("/etc/slurm/slurm.conf")
 
 
 class Log:
@@ -196,8 +200,8 @@ class Cluster:
 
     def __init__(self, folder: Path, log: Log):
         self.folder, self.log = folder, log
-        self.conf = folder / "slurm.conf"
-        self.env = {**os.environ, "SLURM_CONF": str(self.conf)}
+        self.conf, self.wrote_conf = CONF, False
+        self.env = {key: value for key, value in os.environ.items() if key != "SLURM_CONF"}
 
     def start(self, machine: dict[str, str]) -> None:
         for sub in ("state", "spool", "log"):
@@ -206,6 +210,8 @@ class Cluster:
         munge.mkdir(mode=0o711)
         munge.chmod(0o711)  # munged's socket folder: its own, searchable by all
         shutil.chown(munge, "munge", "munge")
+        self.conf.parent.mkdir(parents=True, exist_ok=True)
+        self.wrote_conf = True
         self.conf.write_text(slurm_conf(self.folder, machine))
         self.log(f"slurm.conf ({self.conf}):")
         self.log(self.conf.read_text())
@@ -265,6 +271,10 @@ class Cluster:
         for pid, name in running(("slurmstepd",)).items():
             log(f"{name} (pid {pid}) left: killed")
             os.kill(pid, signal.SIGKILL)
+        if self.wrote_conf:
+            shutil.copy(self.conf, self.folder / "log/slurm.conf")  # for the record
+            self.conf.unlink()
+            log(f"deleted {self.conf}")
 
 
 # 3. the runs
@@ -426,6 +436,8 @@ def main() -> int:
         sys.exit("made for Debian (apt-get, the slurm-wlm and munge packages)")
     if running():
         sys.exit(f"SLURM or munge already runs here ({running()}): this script starts and stops its own")
+    if CONF.exists():
+        sys.exit(f"{CONF} exists: this machine has a SLURM config of its own, which this script would replace")
     log = Log(args.log)
     # the cluster's cleanup runs on Ctrl-C and on a kill (SIGTERM, SIGHUP) too
     for signum in (signal.SIGTERM, signal.SIGHUP):
@@ -451,8 +463,8 @@ def main() -> int:
         run_config = args.work / "run.yaml"
         run_config.write_text(yaml.safe_dump({"results_dir": "results", "tuning": {"workers": WORKERS}}))
         configs = [ROOT / "config/config.yaml", run_config]
-        os.environ["SLURM_CONF"] = str(cluster.conf)
         # the jobs import this checkout's package (sbatch passes the environment on)
+        os.environ.pop("SLURM_CONF", None)  # the jobs read /etc/slurm/slurm.conf; so does everything here
         os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
         log(f"SLURM run: the demo workflow, tuning.workers {WORKERS}, through the profile in {args.work}/profile")
         # first the steps up to the tuning: then both workers start together, as on a cluster with CPUs to spare
@@ -478,7 +490,7 @@ def main() -> int:
         if cluster is not None:
             log("stopping the cluster")
             cluster.stop()
-            for name in ("slurmctld.log", "slurmd.log"):
+            for name in ("slurmctld.log", "slurmd.log", "slurm.conf"):
                 if (folder / "log" / name).exists():
                     shutil.copy(folder / "log" / name, args.work / name)
         left = running()
