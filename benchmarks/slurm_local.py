@@ -332,6 +332,7 @@ def snakemake(log: Log, folder: Path, args: list, configs: list[Path], timeout: 
         "--configfile", *configs,
     ]  # fmt: skip
     log("$ " + " ".join(str(part) for part in command))
+    log(f"  load average before: {load()} (other work on the machine slows the steps)")
     start = time.monotonic()
     with (folder / f"{name}.log").open("w") as output:
         process = subprocess.Popen([str(part) for part in command], stdout=output, stderr=subprocess.STDOUT)
@@ -348,8 +349,12 @@ def snakemake(log: Log, folder: Path, args: list, configs: list[Path], timeout: 
     if code:
         log((folder / f"{name}.log").read_text()[-4000:])
         raise RuntimeError(f"the workflow failed (exit code {code}) after {seconds:.0f} s: {folder}/{name}.log")
-    log(f"  done in {seconds:.0f} s")
+    log(f"  done in {seconds:.0f} s; load average: {load()}")
     return seconds
+
+
+def load() -> str:
+    return " ".join(Path("/proc/loadavg").read_text().split()[:3])
 
 
 # 4. and 5. the checks
@@ -405,6 +410,25 @@ def check_study(log: Log, results: Path) -> None:
     require(not set.intersection(*ran.values()), "two workers ran the same trial")
     require(set.union(*ran.values()) == finished, "the study's finished trials are not the ones the workers ran")
     require(len(finished) >= n_trials, "the study holds fewer trials than asked")
+
+
+def step_times(log: Log, cluster: Cluster, work: Path) -> None:
+    """Per step: the SLURM job's time (start to end, Snakemake's start-up in the job included), and the step's
+    own wall and CPU time in both runs (its Snakemake benchmark file)."""
+
+    def benchmark(run: str, step: str) -> tuple[float, float]:
+        path = work / run / "results/benchmarks" / f"{step}.tsv"
+        if not path.exists():
+            return float("nan"), float("nan")
+        row = dict(zip(*(line.split("\t") for line in path.read_text().splitlines()[:2])))
+        return float(row["s"]), float(row["cpu_time"])
+
+    log("per step [s]: SLURM job | step wall, CPU in the SLURM run | step wall, CPU in the local run")
+    for job in sorted(cluster.jobs(), key=lambda job: int(job["id"])):
+        step = re.sub(r"^rule_|_wildcards", "", job["rule"])
+        seconds = (datetime.datetime.fromisoformat(job["end"]) - datetime.datetime.fromisoformat(job["start"])).seconds
+        (slurm_wall, slurm_cpu), (local_wall, local_cpu) = benchmark("slurm", step), benchmark("local", step)
+        log(f"  {step:32s} {seconds:5d} | {slurm_wall:6.1f} {slurm_cpu:6.1f} | {local_wall:6.1f} {local_cpu:6.1f}")
 
 
 def compare_tables(log: Log, ours: Path, theirs: Path) -> None:
@@ -463,8 +487,8 @@ def main() -> int:
         run_config = args.work / "run.yaml"
         run_config.write_text(yaml.safe_dump({"results_dir": "results", "tuning": {"workers": WORKERS}}))
         configs = [ROOT / "config/config.yaml", run_config]
-        # the jobs import this checkout's package (sbatch passes the environment on)
         os.environ.pop("SLURM_CONF", None)  # the jobs read /etc/slurm/slurm.conf; so does everything here
+        # the jobs import this checkout's package (sbatch passes the environment on)
         os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
         log(f"SLURM run: the demo workflow, tuning.workers {WORKERS}, through the profile in {args.work}/profile")
         # first the steps up to the tuning: then both workers start together, as on a cluster with CPUs to spare
@@ -481,6 +505,7 @@ def main() -> int:
         log("local run: the same workflow and threads per job, on a copy of the SLURM run's study")
         local_args = ["--cores", machine["CPUs"], "--set-threads", *(f"{rule}={n}" for rule, n in threads.items())]
         local_seconds = snakemake(log, args.work / "local", local_args, configs, args.timeout)
+        step_times(log, cluster, args.work)
         compare_tables(log, args.work / "slurm/results", args.work / "local/results")
         log(f"wall time: SLURM run {slurm_seconds:.0f} s, local run {local_seconds:.0f} s (its tuning already done)")
         passed = True
