@@ -225,3 +225,34 @@ def test_a_study_on_new_data_starts_from_the_earlier_studys_best_trials(tmp_path
         warm_start=3,
     )
     assert cold.trials[0].params != best[0].params  # nothing earlier in its storage: a cold start
+
+
+def test_a_worker_that_loses_the_race_to_create_the_database_tables_tries_again(monkeypatch, tmp_path):
+    # two workers opening an empty PostgreSQL database at once: one fails on a duplicate (tests/test_optuna_postgres.py)
+    from sqlalchemy.exc import IntegrityError
+
+    opened = []
+
+    def storage(url):
+        opened.append(url)
+        if len(opened) == 1:
+            raise IntegrityError("CREATE TYPE studydirection", {}, Exception("duplicate key value"))
+        return "the storage"
+
+    monkeypatch.setattr(optuna.storages, "RDBStorage", storage)
+    monkeypatch.setattr(tuning.time, "sleep", lambda seconds: None)
+    assert tuning.open_storage("postgresql://optuna@host/db") == "the storage"
+    assert opened == ["postgresql://optuna@host/db"] * 2
+
+    # a database that never opens stops the worker after its tries, with the database's own error
+    def never(url):
+        opened.append(url)
+        raise IntegrityError("CREATE TYPE studydirection", {}, Exception("duplicate key value"))
+
+    opened.clear()
+    monkeypatch.setattr(optuna.storages, "RDBStorage", never)
+    with pytest.raises(IntegrityError):
+        tuning.open_database("postgresql://optuna@host/db", tries=3)
+    assert len(opened) == 3
+    # a journal file is no database
+    assert isinstance(tuning.open_storage(str(tmp_path / "journal.log")), optuna.storages.JournalStorage)

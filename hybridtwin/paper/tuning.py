@@ -10,6 +10,8 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import random
+import time
 from pathlib import Path
 
 import numpy as np
@@ -81,10 +83,32 @@ LOCK_GRACE_S = 30
 def open_storage(storage: str):
     """A journal file path (default) or an RDB URL such as sqlite:///optuna.db or postgresql://..."""
     if "://" in storage:
-        return storage
+        return open_database(storage)
     Path(storage).parent.mkdir(parents=True, exist_ok=True)
     backend = optuna.storages.journal.JournalFileBackend(str(Path(storage).resolve()), lock_obj=journal_lock(storage))
     return optuna.storages.JournalStorage(backend)
+
+
+# tries at opening a database whose tables another worker is creating at that moment
+DATABASE_TRIES = 5
+
+
+def open_database(url: str, tries: int = DATABASE_TRIES) -> optuna.storages.RDBStorage:
+    """Optuna's storage in the database at ``url``; the first to open an empty database creates its tables.
+
+    Workers opening an empty database at the same moment race to create them, and the losers fail on a
+    duplicate (seen on PostgreSQL; Optuna's issue 1092): a worker that fails tries again, and then finds them.
+    """
+    from sqlalchemy.exc import SQLAlchemyError  # Optuna's own dependency
+
+    for attempt in range(1, tries + 1):
+        try:
+            return optuna.storages.RDBStorage(url)
+        except SQLAlchemyError as error:
+            if attempt == tries:
+                raise
+            log.warning("opening the study's database failed (%s), trying again", type(error).__name__)
+            time.sleep(attempt * random.uniform(0.5, 1.5))  # apart from the other losers
 
 
 def journal_lock(storage: str) -> optuna.storages.journal.JournalFileSymlinkLock:
