@@ -67,11 +67,6 @@ def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
     assert model.get_params()["corr"] == "squar_exp"  # SMT's documented kernel
 
 
-def test_every_recommendable_model_has_its_place_in_the_order_of_simplicity():
-    assert sorted(registry.SIMPLEST_FIRST) == sorted(registry.RECOMMENDABLE)
-    assert registry.SIMPLEST_FIRST[0] == "surrogate" and registry.SIMPLEST_FIRST[-1] == "stack"
-
-
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():
     rng = np.random.default_rng(3)
     n = 4000
