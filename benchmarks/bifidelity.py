@@ -247,7 +247,17 @@ def main() -> None:
                 flush=True,
             )
     table = pd.DataFrame(rows)
-    text = f"# Bi-fidelity functions\n\n`{' '.join(['python', *sys.argv])}`\n\n{table_text(table)}"
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    dirty = subprocess.run(["git", "status", "--porcelain", "hybridtwin", "benchmarks"], cwd=ROOT, capture_output=True)
+    text = (
+        f"# Bi-fidelity functions\n\n`{' '.join(['python', *sys.argv])}`, commit {commit.strip()}"
+        f"{' (with uncommitted changes)' if dirty.stdout.strip() else ''}, "
+        f"{'in memory' if args.in_memory else 'snakemake'}, {sum(table['seconds']) / 60:.0f} min.\n\n"
+        "Truth-RMSE over the plant's noise on the test blocks (the odd blocks of consecutive parts: never used to "
+        "fit, choose or weigh a model), the same parts for every model, split by the workflow's support gate. "
+        f"Choices that held on the test blocks: {int(table['choices_held'].sum())}/{int(table['choices'].sum())} "
+        "regions.\n\n" + table_text(table)
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "bifidelity.csv", index=False)
