@@ -123,11 +123,11 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
     defaults = config.section_defaults("peers")
-    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit"):
+    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start"):
         parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit")
+    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start")
     peer_settings = {key: getattr(args, key) for key in peer_keys}
     table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
     root = Path(__file__).resolve().parent.parent
