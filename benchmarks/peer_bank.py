@@ -39,7 +39,7 @@ def baselines(case, seed: int):
     return fitted
 
 
-def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None):
+def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None, out=None):
     rows = []
     plants = [
         ("families", family, seed * 1000 + i * 100 + j)
@@ -71,6 +71,8 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_setti
             "seconds": time.perf_counter() - start,
         }
         rows.append(row)
+        if out is not None:  # a run cut short keeps the plants it did
+            pd.DataFrame(rows).to_csv(out / "peer_bank.csv", index=False)
         print(
             f"{generator:8s} {kind:14s} draw {draw}: out-of-support truth-RMSE recommended "
             f"{scored['recommended_out']:.2f}, best peer {best_peer_out:.2f} (ratio {row['ratio_out']:.2f}); "
@@ -129,7 +131,9 @@ def main() -> None:
     warnings.simplefilter("ignore")
     peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start")
     peer_settings = {key: getattr(args, key) for key in peer_keys}
-    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings, out)
     root = Path(__file__).resolve().parent.parent
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True).stdout
     dirty = subprocess.run(["git", "status", "--porcelain", "hybridtwin", "benchmarks"], cwd=root, capture_output=True)
