@@ -101,10 +101,10 @@ def _ranking(measured, candidates: dict[str, np.ndarray], rows: np.ndarray) -> l
     below the noise still shows (on different rows, the noise of the rows decides). The rows are a region's
     choosing blocks, whole stretches of the log that no model's value there was fitted on (the stack's cross-fitted
     by block): the lowest error there is the lowest on campaigns a model did not see. No simplicity guard: on the
-    published bi-fidelity functions and the families bank a guard that kept the simplest model unless the best
-    beat it beyond doubt across the blocks kept a model up to twice as far from the truth in support, where the
-    differences are far below the noise, and out of support, where a region's parts come from a few campaigns,
-    even the surrogate (docs: benchmarks, peers).
+    published bi-fidelity functions a guard that kept the simplest model unless the best beat it beyond doubt
+    across the blocks kept one up to 3.3 times as far from the truth as the best in support, where the models
+    differ far below the noise, and once the surrogate out of support, where a region's parts come from a few
+    campaigns (docs: benchmarks, peers on published bi-fidelity functions).
     """
     contenders = {m: p for m, p in candidates.items() if m in registry.RECOMMENDABLE}
     finite = np.all([np.isfinite(p[rows]) for p in contenders.values()], axis=0)
