@@ -14,6 +14,8 @@ on its test blocks. Usage:
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -37,7 +39,7 @@ def baselines(case, seed: int):
     return fitted
 
 
-def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None):
+def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None, out=None):
     rows = []
     plants = [
         ("families", family, seed * 1000 + i * 100 + j)
@@ -59,11 +61,18 @@ def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_setti
             **scored,
             "ratio_out": scored["recommended_out"] / best_peer_out,
             "ratio_in": scored["recommended_in"] / best_peer_in,
+            **{
+                f"{peer}_over_{plain}_{side}": scored[f"{peer}_{side}"] / scored[f"{plain}_{side}"]
+                for peer, plain in (("cokriging", PLAIN_MFK), ("gp_discrepancy", PLAIN_GP))
+                for side in ("in", "out")
+            },
             "choices_held": sum(holds),
             "choices": len(holds),
             "seconds": time.perf_counter() - start,
         }
         rows.append(row)
+        if out is not None:  # a run cut short keeps the plants it did
+            pd.DataFrame(rows).to_csv(out / "peer_bank.csv", index=False)
         print(
             f"{generator:8s} {kind:14s} draw {draw}: out-of-support truth-RMSE recommended "
             f"{scored['recommended_out']:.2f}, best peer {best_peer_out:.2f} (ratio {row['ratio_out']:.2f}); "
@@ -97,6 +106,14 @@ def summary(table: pd.DataFrame) -> str:
         f"{(table['ratio_in'] <= 1.05).sum()}/{len(table)}; a region's choice held on its test blocks in "
         f"{table['choices_held'].sum()}/{table['choices'].sum()} regions"
     )
+    for peer, plain in (("cokriging", PLAIN_MFK), ("gp_discrepancy", PLAIN_GP)):
+        ratios = [table[f"{peer}_over_{plain}_{side}"] for side in ("in", "out")]
+        lines.append(
+            f"\n{peer} / {plain}: in support median {ratios[0].median():.2f}, worst {ratios[0].max():.2f}, at most 1 "
+            f"in {(ratios[0] <= 1).sum()}/{len(table)}; out of support median {ratios[1].median():.2f}, worst "
+            f"{ratios[1].max():.2f}, at most 1 in {(ratios[1] <= 1).sum()}/{len(table)}; families' medians out of "
+            f"support {ratios[1][table['generator'] == 'families'].median():.2f}"
+        )
     return "\n".join(lines)
 
 
@@ -108,14 +125,21 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
     defaults = config.section_defaults("peers")
-    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit"):
+    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start"):
         parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit")
+    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start")
     peer_settings = {key: getattr(args, key) for key in peer_keys}
-    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings, out)
+    root = Path(__file__).resolve().parent.parent
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True).stdout
+    dirty = subprocess.run(["git", "status", "--porcelain", "hybridtwin", "benchmarks"], cwd=root, capture_output=True)
     text = (
+        f"Command: `{' '.join(['python', *sys.argv])}`, commit {commit.strip()}"
+        f"{' (with uncommitted changes)' if dirty.stdout.strip() else ''}, {table['seconds'].sum() / 60:.0f} min.\n\n"
         "table: out-of-support truth-RMSE on held-out parts (the odd blocks, where every model has an honest "
         "prediction: the same parts for all), median over plants (mm)\n\n" + summary(table)
     )

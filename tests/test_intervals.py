@@ -487,9 +487,11 @@ def test_gate_rows_beyond_a_doe_range_get_an_interval_region_of_their_own_when_e
     says(labels["beyond_doe_range"], "inside the gate", "beyond a DoE range")
 
 
-def test_the_choice_keeps_the_simplest_strong_model_unless_another_wins_beyond_doubt_across_blocks():
+def test_the_choice_is_the_lowest_error_on_the_choosing_blocks_however_small_the_margin():
     # ten choosing blocks of 200 parts; the extended hybrid's errors are a little smaller than the GP discrepancy's
-    # in total, but only on two blocks (a campaign it happens to suit): not beyond doubt, the simpler GP stays
+    # in total, on two blocks only (a campaign it happens to suit): its lower error on the choosing blocks chooses
+    # it (a guard that kept the simpler model within the noise cost up to 3 times the truth-RMSE in support on the
+    # bi-fidelity functions: docs, benchmarks)
     rng = np.random.default_rng(5)
     n = 4000
     calibration = regions.calibration_rows(n, 20)
@@ -498,24 +500,25 @@ def test_the_choice_keeps_the_simplest_strong_model_unless_another_wins_beyond_d
     measured = truth + rng.normal(0, 1, n)
     gp = truth + rng.normal(0, 0.4, n)
     lucky = np.isin(block, [0, 2])
-    extended = np.where(lucky, truth, gp)  # elsewhere the same errors: no blend beats both beyond doubt either
-    honest = {"gp_discrepancy": gp, "extended_hybrid": extended}
+    extended = np.where(lucky, truth, gp)  # elsewhere the same errors
+    honest = {"gp_discrepancy": gp, "extended_hybrid": extended, "surrogate": 0.5 * truth}
     region = np.full(n, "in_support", dtype=object)
     rows = np.flatnonzero(calibration)
     rmse_of = {m: np.sqrt(np.mean((measured[rows] - p[rows]) ** 2)) for m, p in honest.items()}
-    assert rmse_of["extended_hybrid"] < rmse_of["gp_discrepancy"]
+    assert rmse_of["extended_hybrid"] < rmse_of["gp_discrepancy"] < rmse_of["surrogate"]
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
-    assert fitted.recommended["in_support"] == "gp_discrepancy"
-    assert fitted.ranking["in_support"][1] == "extended_hybrid"  # the rest by RMSE
-    # better on every block: beyond doubt, it is chosen
-    honest["extended_hybrid"] = truth + rng.normal(0, 0.1, n)
-    assert intervals.RegionIntervals.fit(measured, honest, region, calibration, []).recommended["in_support"] == (
-        "extended_hybrid"
-    )
-    # on fewer than five blocks nothing can be beyond doubt: the best by RMSE is taken, not the simplest
-    honest["extended_hybrid"] = extended
-    few = intervals.RegionIntervals.fit(measured, honest, region, regions.calibration_rows(n, 6), [])
-    assert few.recommended["in_support"] != "gp_discrepancy"
+    # every model (the stack's cross-fitted errors too) ranked by its RMSE on the choosing rows, the lowest chosen
+    scored = {m: np.sqrt(np.mean(np.square(e["in_support"]))) for m, e in fitted.calibration.items()}
+    assert fitted.ranking["in_support"] == sorted(scored, key=scored.get)
+    assert fitted.recommended["in_support"] == min(scored, key=scored.get) != "gp_discrepancy"
+    assert fitted.ranking["in_support"].index("extended_hybrid") < fitted.ranking["in_support"].index("gp_discrepancy")
+    # the test rows decide nothing: the same choice whatever they hold
+    scrambled = {m: np.where(calibration, p, rng.normal(0, 9, n)) for m, p in honest.items()}
+    assert intervals.RegionIntervals.fit(measured, scrambled, region, calibration, []).ranking == fitted.ranking
+    # in a tie, the order of the registry's models decides
+    tie = {"extended_hybrid": gp.copy(), "gp_discrepancy": gp.copy()}
+    assert intervals._ranking(measured, tie, rows) == ["extended_hybrid", "gp_discrepancy"]
+    assert intervals._ranking(measured, dict(reversed(tie.items())), rows) == ["extended_hybrid", "gp_discrepancy"]
     assert stack.choosing_blocks(calibration)[[0, 199, 200, 400, 3999]].tolist() == [0, 0, -1, 1, -1]
 
 

@@ -104,7 +104,7 @@ COKRIGING = Model(
     "out-of-fold on the parts it trained on (hyperparameters held), the final model elsewhere",
     peer=True,
     estimator="hybridtwin.models.cokriging:CoKriging",
-    settings=(("cokriging_n_high", "n_high"), ("cokriging_n_fit", "n_fit")),
+    settings=(("cokriging_n_high", "n_high"), ("cokriging_n_fit", "n_fit"), ("cokriging_n_start", "n_start")),
 )
 STACK = Model(
     "stack",
@@ -129,14 +129,6 @@ PEERS: tuple[Model, ...] = tuple(model for model in MODELS if model.peer)
 PEER_NAMES: tuple[str, ...] = tuple(model.name for model in PEERS)
 # best first in a tie: the order of MODELS
 RECOMMENDABLE: tuple[str, ...] = tuple(model.name for model in MODELS if model.recommendable)
-# the recommendable models, simplest first: a region keeps the simplest that its best model does not beat beyond
-# doubt across the choosing blocks (the surrogate learns nothing from production; a GP of the discrepancy a smooth
-# correction; the named causes are chosen by a search; the XGBoost models have hundreds of splits; the stack blends
-# them all with fitted weights)
-SIMPLEST_FIRST: tuple[str, ...] = tuple(
-    model.name
-    for model in (SURROGATE, HYBRID_GATED, GP_DISCREPANCY, COKRIGING, EXTENDED, HYBRID, EXTENDED_HYBRID, STACK)
-)
 # the recommended model per row, as a pseudo-model of the comparison tables
 RECOMMENDED = "recommended"
 RECOMMENDED_COLUMN = f"pred_{RECOMMENDED}"
