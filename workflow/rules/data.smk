@@ -54,6 +54,7 @@ rule standardize:
         log_of("standardize"),
     benchmark:
         benchmark_of("standardize")
+    priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
     params:
@@ -80,6 +81,7 @@ rule support_gate:
         log_of("support_gate"),
     benchmark:
         benchmark_of("support_gate")
+    priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
     params:

@@ -20,6 +20,7 @@ rule diagnose:
         log_of("diagnose"),
     benchmark:
         benchmark_of("diagnose")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     # one core, beside the tuning, which it does not wait for (its result does not depend on the threads)
@@ -55,9 +56,10 @@ rule model_extension:
         log_of("model_extension"),
     benchmark:
         benchmark_of("model_extension")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
+    threads: 1
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "max_train_rows"),
@@ -78,6 +80,7 @@ rule production_predictions:
         log_of("production_predictions"),
     benchmark:
         benchmark_of("production_predictions")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:

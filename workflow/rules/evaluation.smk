@@ -16,6 +16,7 @@ rule predict_production:
         log_of("predict_production"),
     benchmark:
         benchmark_of("predict_production")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:
@@ -42,6 +43,7 @@ rule matched_check:
         log_of("matched_check"),
     benchmark:
         benchmark_of("matched_check")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:

@@ -29,6 +29,7 @@ rule prediction_intervals:
         log_of("prediction_intervals"),
     benchmark:
         benchmark_of("prediction_intervals")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:
@@ -73,6 +74,7 @@ rule cause_sweeps:
         log_of("cause_sweeps"),
     benchmark:
         benchmark_of("cause_sweeps")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:

@@ -28,7 +28,9 @@ rule tune_worker:
         benchmark_of("tune_worker", "_{worker}")
     wildcard_constraints:
         worker=r"\d+",
-    priority: 1
+    # the tuning heads the run's critical path (tuning, residual models, checks, extension, intervals): it
+    # starts first, and the steps after it (priority 1) go before the peers and the proposals
+    priority: 2
     conda:
         "../envs/hybridtwin.yaml"
     # one core: the peers and the diagnosis, which do not wait for the tuning, run on the other
@@ -53,9 +55,11 @@ rule tune_residual:
         log_of("tune_residual"),
     benchmark:
         benchmark_of("tune_residual")
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2  # any trial a worker left undone runs here
+    # one core, so that it never waits for both to be free (a trial a worker left undone runs here, alike)
+    threads: 1
     params:
         **TUNING_PARAMS,
     script:
@@ -77,9 +81,10 @@ rule residual_cv:
         benchmark_of("residual_cv", "_{training}")
     wildcard_constraints:
         training="filtered|unfiltered",
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
+    threads: 1
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "folds", "max_train_rows"),
@@ -117,9 +122,10 @@ rule residual_fit:
         benchmark_of("residual_fit", "_{training}")
     wildcard_constraints:
         training="filtered|unfiltered",
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 2
+    threads: 1
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "max_train_rows"),

@@ -37,6 +37,7 @@ rule surrogate_fit:
         log_of("surrogate_fit"),
     benchmark:
         benchmark_of("surrogate_fit")
+    priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
     params:
@@ -58,6 +59,7 @@ rule residuals:
         log_of("residuals"),
     benchmark:
         benchmark_of("residuals")
+    priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
     params:
