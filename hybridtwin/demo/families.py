@@ -86,6 +86,7 @@ class PlantCase:
     noise: float
     confounding: str = ""
     names: dict[str, str] = field(default_factory=dict)
+    hidden_causes: tuple[str, ...] = ()  # every cause put in, those below the detection limit too
 
 
 DOE_LOW = np.array([v[0] for v in demo.INPUTS.values()])

@@ -362,7 +362,7 @@ def evaluate(
         generator,
         case.confounding,
         models.out_of_support,
-        tuple(getattr(case, "hidden_causes", ())),
+        case.hidden_causes,
     )
 
 

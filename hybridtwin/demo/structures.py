@@ -250,7 +250,6 @@ class StructureCase(PlantCase):
     n_doe: int = 0
     n_inputs: int = 0
     cause_ratios: tuple[float, ...] = ()  # each cause's std over the surrogate's uncertainty, in support
-    hidden_causes: tuple[str, ...] = ()  # every cause put in, those below the detection limit too
     surrogate_std: float = 0.0
     offset: float = 0.0
     simulator: Callable | None = None
