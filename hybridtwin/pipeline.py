@@ -226,6 +226,36 @@ def calibrate(predictions, production, doe, spec: Spec, threshold: float, settin
     return coverage.calibrate(predictions, inputs, doe_range, threshold, settings, spec.seed, truth, units)
 
 
+@dataclass
+class Answers:
+    calibrated: object  # coverage.Calibration: regions, intervals, the recommended model per region
+    reach: object  # answers.novelty.ProductionNeighbourhood: how novel a new period may be
+    manifest: dict  # predictor.json: what the predictor and the monitor need besides the model files
+
+
+def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, input_units, truth=None) -> Answers:
+    """The answers' calibration: the intervals and the recommendation per region, the production's reach and the
+    predictor's manifest with the monitor's calibration. ``log``: the production log, every column in time order
+    (the monitor's regimes need its ids and shifts); ``settings``: the config's ``intervals`` plus the manifest's
+    ``unit`` and ``csv``; ``causes``: the extension's columns; ``input_units``: the config's ``units.inputs``."""
+    from hybridtwin.answers import predictor
+    from hybridtwin.diagnosis.causes import unit_of
+    from hybridtwin.monitor import calibration as monitor
+
+    columns = [*spec.inputs, *sorted(set(causes) - set(spec.inputs))]
+    units = {name: unit_of(name, input_units) for name in columns}
+    production = log[[name for name in log.columns if name in set(columns)]]
+    threshold = float(gate.threshold_)
+    calibrated = calibrate(predictions, production, doe, spec, threshold, settings, truth, units)
+    shown = {"inputs": list(spec.inputs), "target": spec.target, "threshold": threshold}
+    shown |= {key: settings[key] for key in ("unit", "csv", "level")}
+    manifest = predictor.manifest(doe, calibrated, shown, typical(production, in_support(predictions), columns), units)
+    manifest["monitor"] = monitor.calibrate(
+        predictions["measured"], calibrated, settings["level"], log, spec.inputs, spec.seed, causes
+    )
+    return Answers(calibrated, production_reach(production, gate, spec, settings["blocks"]), manifest)
+
+
 def matched_predictions(matched, spec: Spec, extension_table, cases, peer_models: dict, surrogate_model) -> dict:
     """Every model at the matched cases: the extension's table (surrogate, hybrid, extended, extended hybrid), the
     gated hybrid from the matched check's ``cases`` and the peers (``peer_models`` by name)."""
