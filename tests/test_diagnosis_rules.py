@@ -314,3 +314,63 @@ def test_a_chosen_product_gives_way_to_its_column_that_explains_as_much():
 def chosen(y, by_name, *fits) -> Selection:
     """A selection that has chosen ``fits`` among the candidates of ``by_name``, with lenient rules."""
     return Selection(y, list(by_name.values()), Lenient(SETTINGS, min_effect=0.5), {}, list(fits))
+
+
+def _smooth(name: str, values, score: float = -1.0, p_value: float = 0.0, kind: str = "log") -> fitting.Fit:
+    """A smooth candidate's linear fit: its form's name, its values, its score and p-value matter to the id rule."""
+    values = np.asarray(values, float)
+    candidate = Candidate.new(name, kind, values, (name,))
+    return fitting.Fit(candidate, forms.fit_form("linear", values, values), values, 1.0, 1.0, score, p_value, 0.5, 0.5)
+
+
+def test_the_id_rule_backfits_the_input_surface_and_the_smooth_quantities_and_predicts_held_out_parts():
+    rng = np.random.default_rng(3)
+    n = 3000
+    inputs = rng.uniform(-1, 1, (n, 2))
+    ambient, wear = rng.uniform(-1, 1, n), np.linspace(0, 1, n)
+    truth = 1.5 * inputs[:, 0] + inputs[:, 0] * inputs[:, 1] + 2.0 * ambient - 1.0 * wear
+    y = truth + rng.normal(0, 0.05, n)
+    train, test = np.arange(n) % 4 != 0, np.arange(n) % 4 == 0
+    smooth = [_smooth("ambient", ambient), _smooth("wear", wear)]
+    held_out = ids._predict_held_out(np.flatnonzero(train), np.flatnonzero(test), y, inputs, smooth, 1e-3)
+    # each part of the sum found by the others' remainders: the held-out parts are recovered to the noise
+    assert np.sqrt(np.mean((held_out - truth[test]) ** 2)) < 0.1
+    without_inputs = ids._predict_held_out(np.flatnonzero(train), np.flatnonzero(test), y, None, smooth, None)
+    assert np.sqrt(np.mean((without_inputs - truth[test]) ** 2)) > 0.5  # the surface carried the inputs' part
+
+
+def test_what_an_id_holds_beyond_the_surface_is_centred_and_its_share_is_what_the_surface_took():
+    frame, surface, coil, rng = material_coils()
+    own = rng.normal(0, 1.0, coil.max() + 1)
+    y = surface + own[coil] + rng.normal(0, 0.3, len(frame))
+    candidates = [Candidate.new(name, "input", frame[name].to_numpy(float), (name,)) for name in ("m1", "m2")]
+    group = Candidate.new("coil", "group", frame["coil"].to_numpy(), ("coil",))
+    rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=0.0)
+    left = ids.unaccounted(group, y, candidates, [], rules)
+    assert abs(left.mean()) < 1e-12
+    # the coils' own offsets stay (their std 1.0 against the surface's 1.3): a share of the level differences
+    _, names, share = ids.id_stands(rules.best_fit(group, y), y, [*candidates, group], {}, rules)
+    offsets = pd.Series(own[coil]).groupby(coil).mean()
+    surface_by_coil = pd.Series(surface).groupby(coil).mean()
+    expected = surface_by_coil.var() / (surface_by_coil.var() + offsets.var())
+    assert names == (ids.INPUT_SURFACE,) and abs(share - expected) < 0.15 and 0.2 < share < 0.9
+    flat = np.zeros(len(frame))  # no level differences at all: nothing to share
+    assert ids.id_stands(rules.best_fit(group, flat + 1e-9 * rng.normal(size=len(frame))), flat, [group], {}, rules)[
+        2
+    ] in (0.0, pytest.approx(0.0, abs=1e-6))
+
+
+def test_the_smooth_quantities_that_may_account_for_an_id_are_the_best_three_of_the_log_and_time():
+    rules = Lenient(SETTINGS, n_tests=1, min_effect=0.0)
+    values = np.linspace(0, 1, 50)
+    fits = [
+        _smooth("b_ambient", values, score=-3.0),
+        _smooth("a_ambient", values, score=-3.0),  # the same score: by name
+        _smooth("wear", values, score=-5.0),
+        _smooth("humidity", values, score=-1.0),
+        _smooth("shift_hours", values, score=-2.0),
+        _smooth("noise", values, score=-9.0, p_value=0.5),  # not significant
+        _smooth("die_temp", values, score=-9.0, kind="input"),  # the input surface holds the inputs
+    ]
+    chosen = ids.smooth_accounts(fits, rules)
+    assert [f.candidate.name for f in chosen] == ["wear", "a_ambient", "b_ambient"]

@@ -253,3 +253,53 @@ def test_sensitivity_table_by_hand():
     assert (
         table.loc["in_support", "rmse_filtered_train_gated"] == table.loc["in_support", "rmse_filtered_train_no_gate"]
     )
+
+
+def test_matched_cases_table_numbers_the_cases_from_one_and_keeps_their_support():
+    matched = pd.DataFrame({"sim": [9.0, 12.5, 8.0], "meas": [10.0, 12.0, 7.0]})
+    summary, cases = tables.matched_cases_table(matched, "sim", "meas", [9.5, 11.0, 8.5], [0.5, 1.0, -1.0], [1, 0, 1])
+    assert list(cases.columns[:3]) == ["matched_row", "in_support", "measured"]
+    assert cases["matched_row"].tolist() == [1, 2, 3]
+    assert cases["in_support"].tolist() == [True, False, True]
+    np.testing.assert_array_equal(cases["simulated"], [9.0, 12.5, 8.0])
+    np.testing.assert_array_equal(cases["error_hybrid_gated"], [0.0, 1.0, -0.5])  # 7 - (8.5 - 1)
+    assert summary["n"].tolist() == [3] * 5
+
+
+def _predictions_and_cases():
+    predictions = pd.DataFrame(
+        {
+            "in_support": [True, False, True],
+            "measured": [10.0, 20.0, 12.0],
+            "pred_surrogate": [9.0, 18.0, 12.5],
+            "residual_approx": [1.0, 2.0, -0.5],
+            "pred_hybrid_oof": [9.75, 30.0, 12.0],
+        }
+    )
+    summary, cases = matched_summary([10.0, 12.0], [9.0, 12.5], [9.5, 11.0], [0.5, 1.0], [True, False])
+    return predictions, cases, summary
+
+
+def test_residual_check_pairs_each_residual_with_its_target_in_support_and_at_the_matched_cases():
+    predictions, cases, summary = _predictions_and_cases()
+    shown = tables.residual_check(predictions, cases, summary)
+    np.testing.assert_array_equal(shown["production_target"], [1.0, -0.5])  # the in-support rows only
+    np.testing.assert_array_equal(shown["production_pred"], [0.75, -0.5])  # out-of-fold hybrid - surrogate
+    np.testing.assert_array_equal(shown["matched_target"], [1.0, -0.5])
+    np.testing.assert_array_equal(shown["matched_pred"], [0.5, 1.0])
+    first = summary.iloc[0]  # the residual's own row: predicted against true
+    assert first["comparison"].startswith("residual") and shown["matched_scores"] == {
+        "r2": first["r2"],
+        "rmse": first["rmse"],
+    }
+
+
+def test_error_groups_are_the_surrogate_and_hybrid_errors_in_support_and_at_the_matched_cases():
+    predictions, cases, _ = _predictions_and_cases()
+    groups = tables.error_groups(predictions, cases)
+    production, matched = groups
+    assert production == "production in support (n=2), hybrid out-of-fold" and matched == "matched cases (n=2)"
+    np.testing.assert_array_equal(groups[production]["surrogate"], [1.0, -0.5])
+    np.testing.assert_array_equal(groups[production]["hybrid"], [0.25, 0.0])
+    np.testing.assert_array_equal(groups[matched]["surrogate"], [0.5, 1.0])
+    np.testing.assert_array_equal(groups[matched]["hybrid"], [0.0, 0.0])
