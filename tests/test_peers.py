@@ -44,7 +44,7 @@ def _rmse(a, b):
 
 def test_gp_discrepancy_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
     residual = case["y_parts"] - simulator(case["parts"].to_numpy())
-    model = GPDiscrepancy(n_hyper=200, n_fit=600).fit(case["parts"], residual)
+    model = GPDiscrepancy(n_hyper=200, n_fit=600).fit(case["parts"], residual, X_low=case["doe"])
     corrected = simulator(case["new"].to_numpy()) + model.predict(case["new"])
     assert _rmse(corrected, case["truth"]) < 0.1  # the noise is 0.3, the discrepancy up to 5
     assert _rmse(simulator(case["new"].to_numpy()), case["truth"]) > 2
@@ -177,7 +177,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):
     models = {
-        "gp_discrepancy": GPDiscrepancy(n_hyper=100, n_fit=300).fit(case["parts"], case["y_parts"]),
+        "gp_discrepancy": GPDiscrepancy(n_hyper=100, n_fit=300).fit(case["parts"], case["y_parts"], X_low=case["doe"]),
         "cokriging": CoKriging(n_high=100, n_start=2).fit(
             case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
         ),
@@ -285,3 +285,35 @@ def test_a_model_missing_on_far_regions_does_not_empty_the_comparisons_out_of_su
     assert outside_rows["stack"] == [11, 12]
     # in support every model covers at least half: the rows all three share
     assert np.flatnonzero(rows["hybrid"] & inside).tolist() == [1, 2, 3, 4, 6, 7, 8, 9]
+
+
+def _campaign_plant(seed: int):
+    """500 parts of 25 coils (three per-coil properties) in five campaigns that hold nine settings: the residual a
+    smooth function of two properties plus noise of twice its spread; new parts near the logged ones."""
+    rng = np.random.default_rng(seed)
+    columns = [f"x{j}" for j in range(12)]
+    properties = rng.uniform(-1, 1, (25, 3))
+    coil = np.repeat(np.arange(25), 20)
+    settings = np.repeat(rng.uniform(-1, 1, (5, 9)), 100, axis=0)
+    X = np.column_stack([properties[coil], settings]) + rng.normal(0, 0.02, (500, 12))
+
+    def discrepancy(X):
+        return 0.8 * X[:, 0] + 0.4 * X[:, 1] ** 2
+
+    residual = discrepancy(X) + rng.normal(0, 0.7, len(X))
+    doe = pd.DataFrame(rng.uniform(-1.2, 1.2, (67, 12)), columns=columns)
+    new = X + rng.normal(0, 0.05, X.shape)
+    return pd.DataFrame(X, columns=columns), residual, doe, pd.DataFrame(new, columns=columns), discrepancy(new)
+
+
+@pytest.mark.parametrize(
+    "seed, at_most",
+    [
+        (4, 0.15),  # the likelihood search from the simulator's small noise: 0.32
+        (3, 0.09),  # and: 0.11
+    ],
+)
+def test_gp_discrepancy_searches_its_likelihood_from_a_noisy_start(seed, at_most):
+    parts, residual, doe, new, truth = _campaign_plant(seed)
+    model = GPDiscrepancy(n_hyper=500, n_fit=500).fit(parts, residual, X_low=doe)
+    assert _rmse(model.predict(new), truth) < at_most

@@ -28,18 +28,20 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         random_state: int = 0,
         length_scale_bounds: tuple[float, float] = (1e-2, 1e4),
         noise_bounds: tuple[float, float] = (1e-6, 1.0),
+        noise_start: float = 1e-2,  # the noise where the likelihood search starts (normalized units)
     ):
         self.nu = nu
         self.n_restarts = n_restarts
         self.random_state = random_state
         self.length_scale_bounds = length_scale_bounds
         self.noise_bounds = noise_bounds
+        self.noise_start = noise_start
 
     def _kernel(self, n_features: int):
         # normalize_y scales the target to unit variance, so these bounds are in those units
         return ConstantKernel(1.0, (1e-3, 1e3)) * Matern(
             length_scale=np.full(n_features, 3.0), length_scale_bounds=self.length_scale_bounds, nu=self.nu
-        ) + WhiteKernel(1e-2, self.noise_bounds)
+        ) + WhiteKernel(self.noise_start, self.noise_bounds)
 
     def fit(self, X, y):
         remember_inputs(self, X)
