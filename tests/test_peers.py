@@ -310,14 +310,9 @@ def _campaign_plant(seed: int):
     return pd.DataFrame(X, columns=columns), residual, doe, pd.DataFrame(new, columns=columns), discrepancy(new)
 
 
-@pytest.mark.parametrize(
-    "seed, at_most",
-    [
-        (4, 0.15),  # the likelihood search from the simulator's small noise: 0.32
-        (3, 0.09),  # and: 0.11
-    ],
-)
-def test_gp_discrepancy_searches_its_likelihood_from_a_noisy_start(seed, at_most):
+def test_gp_discrepancy_searches_its_likelihood_from_a_noisy_start():
+    # from the simulator's small noise the search stopped in a poorer optimum here: 0.32 against the truth
+    seed, at_most = 4, 0.15
     parts, residual, doe, new, truth = _campaign_plant(seed)
     model = GPDiscrepancy(n_hyper=500, n_fit=500).fit(parts, residual, X_low=doe)
     assert _rmse(model.predict(new), truth) < at_most
