@@ -102,6 +102,9 @@ def test_the_api_checks_a_table_as_the_command_does(predictor, parts, cell, word
     with pytest.raises(InputError) as caught:
         predictor.predict(parts.rename(columns={"rm_mpa": "Rm_MPa"}))
     says(str(caught.value), "'rm_mpa'", "the file has 'Rm_MPa'")
+    with pytest.raises(InputError) as caught:
+        predictor.predict(parts.head(0))
+    says(str(caught.value), "no rows")
 
 
 def test_set_alone_fills_typical_production_and_says_which(capsys, tmp_path):

@@ -150,8 +150,10 @@ class Predictor:
 
     def checked(self, frame: pd.DataFrame, where: str = "the what-if table") -> pd.DataFrame:
         """The inputs of ``frame`` as numbers, with the workflow's checks: a missing column, text, an empty or an
-        infinite cell stops with one line naming the column and the row."""
+        infinite cell stops with one line naming the column and the row; so does a table with no rows."""
         data.require_inputs(frame, self.inputs, where)
+        if frame.empty:
+            raise InputError(f"{where} has no rows: nothing to predict")
         return checked_numbers(frame, self.inputs, where, self.csv)
 
     def predict(
