@@ -304,8 +304,14 @@ def regime_predictor(parts):
 
 
 def test_the_command_charts_the_regimes_with_the_constants_the_log_set(regime_predictor, parts):
-    quiet = watch.watch(regime_predictor, parts)
+    # the same parts the limits were set on would be quiet by construction: a batch of them shifted by an
+    # in-control amount (a tenth of the noise) must stay quiet too
+    calm = parts.copy()
+    calm["draw_in_mm"] += 0.1 * 2.41
+    quiet = watch.watch(regime_predictor, calm)
     assert quiet.chart.alarm_at is None and quiet.chart.group is not None
+    calm["draw_in_mm"] += 1.9 * 2.41  # the whole batch twice the noise off: the regimes' levels say so
+    assert watch.watch(regime_predictor, calm).chart.alarmed_by == chart.LEVEL
     batch = parts.copy()
     batch.loc[250:, "draw_in_mm"] += 3 * 2.41  # inside a coil
     stepped = watch.watch(regime_predictor, batch)
