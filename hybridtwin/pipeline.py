@@ -244,7 +244,7 @@ def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, inp
 
     columns = [*spec.inputs, *sorted(set(causes) - set(spec.inputs))]
     units = {name: unit_of(name, input_units) for name in columns}
-    production = log[[name for name in log.columns if name in set(columns)]]
+    production = log[[name for name in columns if name in log.columns]]  # the columns the answers need
     threshold = float(gate.threshold_)
     calibrated = calibrate(predictions, production, doe, spec, threshold, settings, truth, units)
     shown = {"inputs": list(spec.inputs), "target": spec.target, "threshold": threshold}

@@ -142,7 +142,7 @@ def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor
     starts = np.r_[True, group[1:] != group[:-1]]
     log = pd.DataFrame({"campaign": [f"C{g:03d}" for g in group]})
     z = residual / np.sqrt(10.0)
-    found, fitted = calibration.constants(log, [], residual, z, np.full(8000, "r"), np.full(8000, "m"))
+    found, fitted, _ = calibration.constants(log, [], residual, z, np.full(8000, "r"), np.full(8000, "m"))
     assert found.columns == ("campaign",)
     assert fitted.within_scale["r"] == pytest.approx(1.0, abs=0.05) and fitted.level_between == pytest.approx(
         0.95, abs=0.3
@@ -150,7 +150,9 @@ def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor
     assert fitted.within_limit == calibration.FLOOR_WITHIN  # independent noise inside the regimes: the floor holds
     # a jump inside regimes (a campaign change the log's columns do not mark) raises the limit
     jumped = residual + np.where((np.arange(8000) % 200) >= 100, 3.0, 0.0)
-    _, raised = calibration.constants(log, [], jumped, jumped / np.sqrt(10.0), np.full(8000, "r"), np.full(8000, "m"))
+    _, raised, _ = calibration.constants(
+        log, [], jumped, jumped / np.sqrt(10.0), np.full(8000, "r"), np.full(8000, "m")
+    )
     within = chart.within_steps(jumped, np.full(8000, "r"), group, raised)
     assert raised.within_limit > calibration.FLOOR_WITHIN and raised.within_limit >= calibration.peak(within, 0.5)
     assert calibration.limits(within, np.full(8000, np.nan), starts, 0)[0] == pytest.approx(raised.within_limit)
@@ -296,7 +298,7 @@ def regime_predictor(parts):
     plain = watch.watch(loaded, parts, explain=False)
     table = plain.table
     models = loaded.intervals.recommend(loaded.where(loaded.checked(parts)).region)
-    found, fitted = calibration.constants(
+    found, fitted, _ = calibration.constants(
         parts, loaded.inputs, table["residual"].to_numpy(float), plain.chart.z, table["interval_region"], models
     )
     loaded.spec["monitor"] = {"regimes": found.to_dict(), **fitted.to_dict(), "slopes": {}, "limit": chart.LIMIT}

@@ -46,6 +46,11 @@ def unit_of(column: str, configured: dict | None = None) -> str:
 MAX_UNPARSED_STAMPS = 0.01  # a text column is read as timestamps when at most this share fails to parse
 
 
+def looks_like_timestamps(values: pd.Series) -> bool:
+    """A text column whose first 200 values read as timestamps (a quick look before parsing a whole log)."""
+    return not pd.api.types.is_numeric_dtype(values) and parse_timestamps(values.iloc[:200]) is not None
+
+
 def parse_timestamps(values: pd.Series) -> pd.Series | None:
     """Text as timestamps (ISO first, then day-first formats), or None if they are not timestamps."""
     text = values.astype(str)

@@ -93,9 +93,11 @@ def limits(within: np.ndarray, level: np.ndarray, starts: np.ndarray, seed: int)
     return max(FLOOR_WITHIN, MARGIN * highest[0]), max(FLOOR_LEVEL, LEVEL_MARGIN * highest[1])
 
 
-def constants(log, inputs, residual, z, region, models, seed: int = 0) -> tuple[regimes.Regimes, chart.Constants]:
-    """The regimes and the charts' constants from the log (in time order), its honest residuals and z, each
-    part's interval region and recommended model."""
+def constants(
+    log, inputs, residual, z, region, models, seed: int = 0
+) -> tuple[regimes.Regimes, chart.Constants, np.ndarray]:
+    """The regimes, the charts' constants and each part's regime label, from the log (in time order), its honest
+    residuals and z, each part's interval region and recommended model."""
     found = regimes.Regimes.learn(log, inputs)
     starts = found.starts(log)
     group = regimes.labels(starts, models)
@@ -105,7 +107,7 @@ def constants(log, inputs, residual, z, region, models, seed: int = 0) -> tuple[
     within = chart.within_steps(residual, region, group, provisional)
     level = chart.level_steps(z, group, provisional)
     h_within, h_level = limits(within, level, starts, seed)
-    return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level)
+    return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level), group
 
 
 def slopes(log, causes, residual, z, group) -> dict:
@@ -137,8 +139,7 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
     z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
     models = picked["recommended_model"].to_numpy(object)
-    found, fitted = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
-    group = regimes.labels(found.starts(log), models)
+    found, fitted, group = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
     return {
         "regimes": found.to_dict(),
         **fitted.to_dict(),

@@ -55,7 +55,7 @@ def _diagnosis_frame(table: pd.DataFrame, added, target: str) -> pd.DataFrame:
 
 def clocks(frame: pd.DataFrame) -> set[str]:
     """Columns that only tell time: numbers that never go down over the batch (a stroke counter) and timestamps."""
-    from hybridtwin.diagnosis.causes import parse_timestamps
+    from hybridtwin.diagnosis.causes import looks_like_timestamps
 
     found = set()
     for column in frame.columns:
@@ -64,7 +64,7 @@ def clocks(frame: pd.DataFrame) -> set[str]:
             numbers = values.to_numpy(float)
             if len(numbers) > 2 and np.all(np.diff(numbers) >= 0) and numbers[-1] > numbers[0]:
                 found.add(column)
-        elif parse_timestamps(values.iloc[:200]) is not None:
+        elif looks_like_timestamps(values):
             found.add(column)
     return found
 

@@ -20,12 +20,6 @@ JUMP = 6.0  # an input's change from one part to the next beyond this many robus
 MIN_RUN = 20  # a column that changes more often than once in this many parts of the log marks no regime
 
 
-def _is_clock(values: pd.Series) -> bool:
-    from hybridtwin.diagnosis.causes import parse_timestamps
-
-    return parse_timestamps(values.iloc[:200]) is not None
-
-
 def robust_step(values: np.ndarray) -> float:
     """A robust SD of a column's change from one part to the next (1.4826 times the median absolute deviation)."""
     steps = np.diff(values)
@@ -48,11 +42,13 @@ class Regimes:
         """From the production log, in time order: text columns that are not timestamps and change at most once in
         MIN_RUN parts; inputs whose jumps (beyond JUMP robust SDs of their part-to-part change) come at most that
         often."""
+        from hybridtwin.diagnosis.causes import looks_like_timestamps
+
         most = len(log) / MIN_RUN
         columns = []
         for column in log.columns:
             values = log[column]
-            if column in inputs or pd.api.types.is_numeric_dtype(values) or _is_clock(values):
+            if column in inputs or pd.api.types.is_numeric_dtype(values) or looks_like_timestamps(values):
                 continue
             text = values.astype(str).to_numpy()
             if np.sum(text[1:] != text[:-1]) <= most:

@@ -88,11 +88,11 @@ def check_columns(batch: pd.DataFrame, predictor, where: str) -> None:
 
 def check_time_order(batch: pd.DataFrame, where: str) -> None:
     """Every timestamp column must never go back: the statistic runs part after part."""
-    from hybridtwin.diagnosis.causes import parse_timestamps
+    from hybridtwin.diagnosis.causes import looks_like_timestamps, parse_timestamps
 
     for column in batch.columns:
         values = batch[column]
-        if pd.api.types.is_numeric_dtype(values) or parse_timestamps(values.iloc[:200]) is None:
+        if not looks_like_timestamps(values):
             continue
         stamps = parse_timestamps(values)
         if stamps is None:
