@@ -76,16 +76,46 @@ def test_cokriging_recovers_a_smooth_discrepancy_and_reloads_exactly(case):
 def test_cokriging_searches_as_smt_documents_and_more_starts_find_no_poorer_optimum(case):
     from hybridtwin.io import config
 
-    # SMT's search from its default 10 starts (Cobyla: with the noise estimated SMT's TNC switches to it), set by
-    # the config's peers.cokriging_n_start
-    assert config.section_defaults("peers")["cokriging_n_start"] == CoKriging().n_start == 10
+    # three searches of SMT's two own starts and 2 more (Cobyla: with the noise estimated SMT's TNC switches to it),
+    # set by the config's peers.cokriging_n_start and cokriging_n_searches
+    defaults = config.section_defaults("peers")
+    assert defaults["cokriging_n_start"] == CoKriging().n_start == 2
+    assert defaults["cokriging_n_searches"] == CoKriging().n_searches == 3
     assert CoKriging().hyper_opt == "Cobyla"
     assert peers.new_peer("cokriging", {"cokriging_n_start": 3}, 0).n_start == 3
+    assert peers.new_peer("cokriging", {"cokriging_n_searches": 4}, 0).n_searches == 4
     data = {"X_low": case["doe"], "y_low": case["y_doe"]}
-    few, many = (CoKriging(n_high=100, n_start=n).fit(case["parts"], case["y_parts"], **data) for n in (1, 4))
+    few, many = (
+        CoKriging(n_high=100, n_start=n, n_searches=1).fit(case["parts"], case["y_parts"], **data) for n in (1, 4)
+    )
     assert few.mfk_.options["n_start"] == 1 and many.mfk_.options["n_start"] == 4
     # the likelihood at the optimum of the high-fidelity level: more starts include the one start's point
     assert many.mfk_.optimal_rlf_value[-1] >= few.mfk_.optimal_rlf_value[-1] - 1e-9
+
+
+def test_cokriging_keeps_the_search_whose_model_predicts_unseen_periods_best(case):
+    """Likelihoods of different draws do not compare; each search's hyperparameters are judged by the RMSE of
+    its model on the parts, each predicted by a refit without its period."""
+    model = CoKriging(n_high=60, n_fit=300, n_start=1, n_searches=3).fit(
+        case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
+    )
+    assert len(model.searched_) == len(model.search_errors_) == 3
+    assert len({round(error, 9) for error in model.search_errors_}) == 3  # the draws lead to different optima
+    best = int(np.argmin(model.search_errors_))
+    assert model.hyperparameters_ == model.searched_[best]
+    y = model.data_["y_high"]
+    for hyperparameters, error in zip(model.searched_, model.search_errors_):
+        held_out = np.empty(len(y))
+        for train, test in crossval.period_folds(len(y), 5):
+            refit = model._refit(model.data_["X_high"][train], y[train], hyperparameters)
+            held_out[test] = refit.predict_values(model.standardizer_.transform(model.data_["X_high"][test])).ravel()
+        assert error == pytest.approx(_rmse(held_out, y), rel=1e-6)
+    # each search drew its own parts of the same rows; the chosen draw is kept
+    assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
+    single = CoKriging(n_high=60, n_fit=300, n_start=1, n_searches=1).fit(
+        case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
+    )
+    assert single.hyperparameters_ == model.searched_[0]  # the first search is the single search's
 
 
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():

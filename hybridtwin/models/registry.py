@@ -104,7 +104,12 @@ COKRIGING = Model(
     "out-of-fold on the parts it trained on (hyperparameters held), the final model elsewhere",
     peer=True,
     estimator="hybridtwin.models.cokriging:CoKriging",
-    settings=(("cokriging_n_high", "n_high"), ("cokriging_n_fit", "n_fit"), ("cokriging_n_start", "n_start")),
+    settings=(
+        ("cokriging_n_high", "n_high"),
+        ("cokriging_n_fit", "n_fit"),
+        ("cokriging_n_start", "n_start"),
+        ("cokriging_n_searches", "n_searches"),
+    ),
 )
 STACK = Model(
     "stack",

@@ -1,0 +1,137 @@
+"""Benchmark: co-kriging's hyperparameters from one likelihood search or from several, against a plain SMT MFK.
+
+On the published bi-fidelity functions (the plants of ``bifidelity.py``), co-kriging is fitted alone on the
+in-support parts of the workflow's gate (the in-memory steps), once per setting:
+
+- ``one search``: one likelihood search of 10 starts on one seeded draw of ``n_high`` parts (the setting before);
+- ``3 searches``: three searches of 2 starts, each on its own draw; the hyperparameters whose model predicts
+  unseen periods of the ``n_fit`` parts best are kept (the default now);
+
+beside the plain SMT MFK (``plain_baselines.PlainMFK``). Scored as ``bifidelity.py`` scores: the truth-RMSE over the
+noise, out of period on the parts a model trained on, the final model elsewhere; in support and out of it. Usage:
+
+    python benchmarks/cokriging_searches.py --seeds 12 13      # about 4 minutes a seed, alone on 2 cores
+
+Writes benchmarks/results/cokriging_searches.csv and .md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from bifidelity import FUNCTIONS, TARGET, plant
+from plain_baselines import PlainMFK
+
+from hybridtwin.demo import harness
+from hybridtwin.demo.families import Expected, PlantCase
+from hybridtwin.models.cokriging import CoKriging
+
+OUT = Path(__file__).resolve().parent / "results"
+SETTINGS = {"one search": {"n_searches": 1, "n_start": 10}, "3 searches": {"n_searches": 3, "n_start": 2}}
+N_FOLDS = 5
+
+
+def in_support(case: dict, seed: int) -> np.ndarray:
+    """The workflow's gate on the plant (the in-memory steps)."""
+    plant_case = PlantCase(
+        "bifidelity", "", case["doe"], case["production"], case["truth"], case["inputs"], TARGET, Expected(None),
+        case["noise"],
+    )  # fmt: skip
+    return harness.Run.of(plant_case, seed, 2).residuals["in_support"].to_numpy(bool)
+
+
+def honest(model, X: pd.DataFrame, inside_rows: np.ndarray, trained: np.ndarray, out_of_fold) -> np.ndarray:
+    """The final model's predictions, out of period on the parts it trained on."""
+    with contextlib.redirect_stdout(io.StringIO()):  # SMT prints its search
+        values = np.asarray(model.predict(X), float).ravel()
+        values[inside_rows[trained]] = out_of_fold()
+    return values
+
+
+def plant_rows(function: str, seed: int) -> list[dict]:
+    case = plant(function, seed)
+    inside = in_support(case, seed)
+    rows_in = np.flatnonzero(inside)
+    X, y, doe = case["production"][case["inputs"]], case["production"][TARGET].to_numpy(float), case["doe"]
+    fitted = {}
+    start = time.perf_counter()
+    with contextlib.redirect_stdout(io.StringIO()):
+        plain = PlainMFK(seed=seed).fit(X.to_numpy()[rows_in], y[rows_in], doe[case["inputs"]], doe[TARGET])
+    fitted["plain MFK"] = (
+        honest(plain, X.to_numpy(), rows_in, plain.rows_, lambda: plain.out_of_fold(N_FOLDS)),
+        time.perf_counter() - start,
+    )
+    for name, settings in SETTINGS.items():
+        start = time.perf_counter()
+        model = CoKriging(n_high=500, n_fit=1000, random_state=seed, **settings)
+        with contextlib.redirect_stdout(io.StringIO()):
+            model.fit(X.iloc[rows_in], y[rows_in], X_low=doe[case["inputs"]], y_low=doe[TARGET])
+        fitted[name] = (
+            honest(model, X, rows_in, model.training_rows_, lambda m=model: m.out_of_fold(N_FOLDS, seed)),
+            time.perf_counter() - start,
+        )
+    rows = []
+    for name, (values, seconds) in fitted.items():
+        row = {"function": function, "seed": seed, "model": name, "seconds": seconds}
+        for side, mask in (("in", inside), ("out", ~inside)):
+            error = values[mask] - case["truth"][mask]
+            row[side] = float(np.sqrt(np.mean(error**2)) / case["noise"]) if mask.any() else np.nan
+        rows.append(row)
+    return rows
+
+
+def summary(table: pd.DataFrame) -> str:
+    wide = table.pivot_table(index=["function", "seed"], columns="model", values=["in", "out"])
+    lines = []
+    for side, title in (("in", "in support"), ("out", "out of support")):
+        part = wide[side][["plain MFK", *SETTINGS]]
+        lines += [f"**{title}**: truth-RMSE / noise", "", "| function | seed | " + " | ".join(part.columns) + " |",
+                  "|---|---:|" + "---:|" * len(part.columns)]  # fmt: skip
+        lines += [
+            f"| {function} | {seed} | " + " | ".join(f"{v:.3f}" for v in values) + " |"
+            for (function, seed), values in part.iterrows()
+        ]
+        ratios = {name: part[name] / part["plain MFK"] for name in SETTINGS}
+        lines += [""] + [
+            f"- {name} / plain MFK: median {r.median():.2f}, worst {r.max():.2f}, at most 1.05 on "
+            f"{int((r <= 1.05).sum())}/{len(r)}"
+            for name, r in ratios.items()
+        ]
+        lines.append("")
+    seconds = table.groupby("model")["seconds"].median()
+    lines.append("Fit time, median s: " + ", ".join(f"{name} {seconds[name]:.1f}" for name in seconds.index))
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[12, 13])
+    parser.add_argument("--functions", nargs="+", default=list(FUNCTIONS))
+    parser.add_argument("--out", default=str(OUT))
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    rows = []
+    for seed in args.seeds:
+        for function in args.functions:
+            rows += plant_rows(function, seed)
+            print(f"{function:20s} seed {seed}: " + ", ".join(
+                f"{r['model']} {r['in']:.3f}/{r['out']:.3f}" for r in rows[-3:]), flush=True)  # fmt: skip
+    table = pd.DataFrame(rows)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out / "cokriging_searches.csv", index=False)
+    text = f"# Co-kriging: one likelihood search or several\n\n`{' '.join(sys.argv)}`\n\n{summary(table)}\n"
+    (out / "cokriging_searches.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
