@@ -153,12 +153,16 @@ def scored(case: dict, predictions, residuals, run: dict, seed: int) -> dict:
     inside = residuals["in_support"].to_numpy(bool)
     compared = [m for m in (*MODELS, PLAIN_MFK, PLAIN_GP, registry.RECOMMENDED) if m in honest]
     test = ~calibrated.calibration
-    common = test & np.all([np.isfinite(honest[m]) for m in compared], axis=0)
-    row = {"n_in": int(np.sum(common & inside)), "n_out": int(np.sum(common & ~inside)), "noise": case["noise"]}
-    for model in compared:
-        for side, mask in (("in", common & inside), ("out", common & ~inside)):
-            error = honest[model][mask] - case["truth"][mask]
-            row[f"{model}_{side}"] = float(np.sqrt(np.mean(error**2)) / case["noise"]) if mask.any() else np.nan
+    row = {"noise": case["noise"]}
+    for side, rows in (("in", test & inside), ("out", test & ~inside)):
+        # as the workflow's peer comparison: a model with values on fewer than half of a side's rows (the stack in
+        # a region too small to weigh one) is left out there, and the others are scored on the same rows
+        valued = [m for m in compared if rows.any() and np.isfinite(honest[m][rows]).mean() >= 0.5]
+        common = rows & np.all([np.isfinite(honest[m]) for m in valued], axis=0)
+        row[f"n_{side}"] = int(common.sum())
+        for model in compared:
+            error = honest[model][common] - case["truth"][common]
+            row[f"{model}_{side}"] = float(np.sqrt(np.mean(error**2)) / case["noise"]) if model in valued else np.nan
     holds = calibrated.table.drop_duplicates("region").set_index("region")["choice_holds"].dropna()
     row["choices_held"], row["choices"] = int(holds.sum()), len(holds)
     row["recommended_models"] = ";".join(f"{k}={v}" for k, v in sorted(calibrated.intervals.recommended.items()))
@@ -178,7 +182,7 @@ BASELINES = (*registry.PEER_NAMES, PLAIN_MFK, PLAIN_GP)
 def with_ratios(row: dict) -> dict:
     """The recommendation over the best of the peers and the plain baselines, in and out of the support."""
     for side in ("in", "out"):
-        best = min(row[f"{m}_{side}"] for m in BASELINES)
+        best = np.nanmin([row[f"{m}_{side}"] for m in BASELINES])
         row[f"ratio_{side}"] = row[f"{registry.RECOMMENDED}_{side}"] / best
         row[f"cokriging_over_plain_{side}"] = row[f"cokriging_{side}"] / row[f"{PLAIN_MFK}_{side}"]
         row[f"gp_over_plain_{side}"] = row[f"gp_discrepancy_{side}"] / row[f"{PLAIN_GP}_{side}"]
