@@ -28,6 +28,15 @@ from hybridtwin.io import config
 from hybridtwin.models.registry import PEER_NAMES as PEERS
 
 BASELINES = (*PEERS, PLAIN_MFK, PLAIN_GP)
+# the peers' settings a run may change (config peers.*)
+PEER_KEYS = (
+    "gp_n_hyper",
+    "gp_n_fit",
+    "cokriging_n_high",
+    "cokriging_n_fit",
+    "cokriging_n_start",
+    "cokriging_n_searches",
+)
 
 
 def baselines(case, seed: int):
@@ -39,12 +48,22 @@ def baselines(case, seed: int):
     return fitted
 
 
-def run(per_family: int, seed: int, demo_kinds: list[str], jobs: int, peer_settings: dict | None = None, out=None):
+def run(
+    per_family: int,
+    seed: int,
+    demo_kinds: list[str],
+    jobs: int,
+    peer_settings: dict | None = None,
+    out=None,
+    only: list[str] | None = None,
+):
+    """``only``: these families (their draws as in a run of all of them)."""
     rows = []
     plants = [
         ("families", family, seed * 1000 + i * 100 + j)
         for j in range(per_family)
         for i, family in enumerate(families.FAMILIES)
+        if only is None or family in only
     ]
     plants += [("demo", kind, seed * 1000 + i) for i, kind in enumerate(demo_kinds)]
     for generator, kind, draw in plants:
@@ -122,18 +141,18 @@ def main() -> None:
     parser.add_argument("--per-family", type=int, default=3)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--demo-kinds", nargs="*", default=list(scenarios.KINDS))
+    parser.add_argument("--families", nargs="*", default=None, choices=families.FAMILIES, help="only these families")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default="benchmarks/out")
     defaults = config.section_defaults("peers")
-    for key in ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start"):
+    for key in PEER_KEYS:
         parser.add_argument(f"--{key.replace('_', '-')}", type=int, default=defaults[key], help=f"peers.{key}")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    peer_keys = ("gp_n_hyper", "gp_n_fit", "cokriging_n_high", "cokriging_n_fit", "cokriging_n_start")
-    peer_settings = {key: getattr(args, key) for key in peer_keys}
+    peer_settings = {key: getattr(args, key) for key in PEER_KEYS}
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings, out)
+    table = run(args.per_family, args.seed, args.demo_kinds, args.jobs, peer_settings, out, args.families)
     root = Path(__file__).resolve().parent.parent
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True).stdout
     dirty = subprocess.run(["git", "status", "--porcelain", "hybridtwin", "benchmarks"], cwd=root, capture_output=True)
