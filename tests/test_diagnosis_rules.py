@@ -374,3 +374,24 @@ def test_the_smooth_quantities_that_may_account_for_an_id_are_the_best_three_of_
     ]
     chosen = ids.smooth_accounts(fits, rules)
     assert [f.candidate.name for f in chosen] == ["wear", "a_ambient", "b_ambient"]
+
+
+def test_the_input_surface_is_shrunk_by_its_error_on_held_out_coils_not_on_rows():
+    # 40 coils, eight material inputs constant within a coil and no effect of their own; the offsets are a
+    # per-coil oil film's. Chosen over rows, the quadratic surface of the inputs recalls each coil's offset and
+    # predicts an unseen coil's worse than nothing: the oil film then looked as if it explained none of the id
+    rng = np.random.default_rng(11)
+    n_coils, per_coil = 40, 60
+    coil = np.repeat(np.arange(n_coils), per_coil)
+    material = rng.uniform(-1, 1, (n_coils, 8))[coil]
+    oil = rng.uniform(1.0, 2.0, n_coils)[coil] + rng.normal(0, 0.01, len(coil))
+    y = 3.0 * (oil - oil.mean()) + rng.normal(0, 0.5, len(coil))
+    inputs = [Candidate.new(f"m{j}", "input", material[:, j], (f"m{j}",)) for j in range(8)]
+    group = Candidate.new("coil", "group", np.array([f"C-{c:02d}" for c in coil]), ("coil",))
+    rules = fitting.Rules(SETTINGS, n_tests=10, min_effect=0.3)
+    oil_fit = rules.best_fit(Candidate.new("oil_film", "log", oil, ("oil_film",)), y)
+    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [*inputs, group], {"oil_film": oil_fit}, rules)
+    assert names == (ids.INPUT_SURFACE, "oil_film")
+    assert not stands and share > 0.9
+    splits = ids.level_folds(group.values, SETTINGS.folds, SETTINGS.seed)
+    assert ids.level_penalty(material, y, splits) >= 1e4  # the surface shrunk: the inputs hold nothing here

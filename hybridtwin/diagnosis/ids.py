@@ -28,16 +28,18 @@ from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.naming import between_level_ss
 from hybridtwin.diagnosis.wording import INPUT_SURFACE
 
-RIDGE_PENALTIES = np.logspace(-3, 4, 15)
+# the input surface's ridge penalties, chosen held out by level; up to a surface shrunk to nothing (the smooth
+# candidates then account for the offsets alone)
+LEVEL_PENALTIES = np.logspace(-3, 8, 12)
 MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets together with the input surface
 PASSES = 3  # backfitting passes of the surface and the smooth candidates
 
 
-def surface(inputs: np.ndarray, y: np.ndarray, penalty: float | None = None):
-    """A quadratic surface of the standardized inputs (ridge); its penalty by generalized cross-validation when
-    none is given."""
-    ridge = Ridge(alpha=penalty) if penalty is not None else RidgeCV(alphas=RIDGE_PENALTIES)
-    return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), ridge).fit(inputs, y)
+def surface(inputs: np.ndarray, y: np.ndarray, penalty: float):
+    """A quadratic surface of the standardized inputs (ridge, :func:`level_penalty`)."""
+    return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), Ridge(alpha=penalty)).fit(
+        inputs, y
+    )
 
 
 def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -77,14 +79,30 @@ def _predict_held_out(train, test, y, inputs, smooth: list[Fit], penalty) -> np.
     return prediction + sum((m.predict(f.candidate.values[test]) for m, f in zip(models, smooth)), np.zeros(len(test)))
 
 
+def level_penalty(inputs: np.ndarray, y, splits) -> float:
+    """The input surface's ridge penalty by its error on levels it was not fitted on.
+
+    Generalized cross-validation over rows chooses a penalty that recalls each level's offset from the inputs
+    that are constant within a level (the material of a coil): held out by level, such a surface predicted the
+    other coils' offsets worse than no surface at all (a per-coil oil film's coil offsets: twice their spread).
+    """
+    search = make_pipeline(
+        StandardScaler(),
+        PolynomialFeatures(2, include_bias=False),
+        RidgeCV(alphas=LEVEL_PENALTIES, cv=splits, scoring="neg_mean_squared_error"),
+    )
+    return float(search.fit(inputs, y).steps[-1][1].alpha_)
+
+
 def unaccounted(group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules) -> np.ndarray:
     """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
     levels of ``group``: what the id's offsets hold beyond them."""
-    matrix = np.column_stack([c.values for c in inputs]) if inputs else None
-    penalty = surface(matrix, y).steps[-1][1].alpha_ if matrix is not None else None
-    explained = np.zeros(len(y))
     settings = rules.settings
-    for train, test in level_folds(group.values, settings.folds, settings.seed):
+    splits = level_folds(group.values, settings.folds, settings.seed)
+    matrix = np.column_stack([c.values for c in inputs]) if inputs else None
+    penalty = level_penalty(matrix, y, splits) if matrix is not None else None
+    explained = np.zeros(len(y))
+    for train, test in splits:
         explained[test] = _predict_held_out(train, test, y, matrix, smooth, penalty)
     left = y - explained
     return left - left.mean()
