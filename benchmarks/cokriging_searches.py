@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -29,6 +28,7 @@ import numpy as np
 import pandas as pd
 from bifidelity import FUNCTIONS, TARGET, plant
 from plain_baselines import PlainMFK
+from results_files import write_results
 
 from hybridtwin.demo import harness
 from hybridtwin.demo.families import Expected, PlantCase
@@ -125,12 +125,8 @@ def main() -> None:
             print(f"{function:20s} seed {seed}: " + ", ".join(
                 f"{r['model']} {r['in']:.3f}/{r['out']:.3f}" for r in rows[-3:]), flush=True)  # fmt: skip
     table = pd.DataFrame(rows)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / "cokriging_searches.csv", index=False)
-    text = f"# Co-kriging: one likelihood search or several\n\n`{' '.join(sys.argv)}`\n\n{summary(table)}\n"
-    (out / "cokriging_searches.md").write_text(text)
-    print(text)
+    title = "Co-kriging: one likelihood search or several"
+    print(write_results(Path(args.out), "cokriging_searches", title, table, summary(table)))
 
 
 if __name__ == "__main__":

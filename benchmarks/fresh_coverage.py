@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
+from results_files import write_results
 
 from hybridtwin import demo
 from hybridtwin.answers.coverage import clopper_pearson
@@ -139,11 +140,7 @@ def main() -> None:
         print(f"{name:28s} log {len(log):>6,}: " + "; ".join(
             f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found), flush=True)  # fmt: skip
     table = pd.DataFrame(rows)
-    OUT.mkdir(parents=True, exist_ok=True)
-    table.to_csv(OUT / "fresh_coverage.csv", index=False)
-    text = f"# Intervals on the next production period\n\n`{' '.join(sys.argv)}`\n\n{summary(table)}\n"
-    (OUT / "fresh_coverage.md").write_text(text)
-    print(text)
+    print(write_results(OUT, "fresh_coverage", "Intervals on the next production period", table, summary(table)))
 
 
 if __name__ == "__main__":
