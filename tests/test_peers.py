@@ -110,6 +110,9 @@ def test_cokriging_keeps_the_search_whose_model_predicts_unseen_periods_best(cas
             refit = model._refit(model.data_["X_high"][train], y[train], hyperparameters)
             held_out[test] = refit.predict_values(model.standardizer_.transform(model.data_["X_high"][test])).ravel()
         assert error == pytest.approx(_rmse(held_out, y), rel=1e-6)
+        if hyperparameters == model.hyperparameters_:  # the chosen search's are its out-of-fold values there
+            assert np.allclose(model.out_of_fold(5, 0), held_out)
+    assert np.allclose(model.out_of_fold(4, 0), model._period_predictions(4))  # other periods: refitted
     # each search drew its own parts of the same rows; the chosen draw is kept
     assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     single = CoKriging(n_high=60, n_fit=300, n_start=1, n_searches=1).fit(

@@ -8,9 +8,11 @@ SMT's own two. Which optimum a search ends in depends on its draw (on the bi-fid
 starts came out up to 6 times the plain SMT MFK's truth-RMSE in support, another draw of the same plant near it),
 and the likelihoods of different draws do not compare: each search's hyperparameters are judged by the error of
 the model on the ``n_fit`` parts, each part predicted without its period (:data:`SEARCH_FOLDS` periods of
-consecutive parts). The best are held while the model is refitted on all ``n_fit`` parts (one likelihood
-evaluation per level): campaigns are narrow, and each one's discrepancy is better known from more of its parts.
-It stores its training data and hyperparameters as JSON and is rebuilt from them exactly.
+consecutive parts). The chosen search's predictions there are also its out-of-fold values on those periods, so its
+score on its own parts is the best of ``n_searches`` and slightly optimistic. The best hyperparameters are held
+while the model is refitted on all ``n_fit`` parts (one likelihood evaluation per level): campaigns are narrow, and
+each one's discrepancy is better known from more of its parts. It stores its training data and hyperparameters as
+JSON and is rebuilt from them exactly.
 """
 
 from __future__ import annotations
@@ -104,12 +106,13 @@ class CoKriging(RegressorMixin, BaseEstimator):
         ]
         found = [self._search(X_high[draw], y[draw], self.random_state + k) for k, draw in enumerate(draws)]
         # the likelihoods of different draws do not compare: the searches are judged on periods they did not see
-        self.search_errors_ = (
-            [self._period_error(hyperparameters) for hyperparameters in found] if len(found) > 1 else [0.0]
-        )
+        held_out = [self._period_predictions(SEARCH_FOLDS, h) for h in found] if len(found) > 1 else []
+        self.search_errors_ = [float(np.sqrt(np.mean((p - self.data_["y_high"]) ** 2))) for p in held_out] or [0.0]
         best = int(np.argmin(self.search_errors_))
         self.searched_ = found
         self.hyperparameters_, self.hyper_rows_ = found[best], draws[best]
+        # the chosen search's out-of-period predictions, kept: out_of_fold on the same periods would refit them
+        self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
         self.mfk_ = self._refit()
         return self
 
@@ -126,7 +129,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         _, FixedMFK = _mfk_class()
         X_high = self.data_["X_high"] if X_high is None else X_high
         y_high = self.data_["y_high"] if y_high is None else y_high
-        model = FixedMFK(hyperparameters or self.hyperparameters_, **self._options())
+        model = FixedMFK(self.hyperparameters_ if hyperparameters is None else hyperparameters, **self._options())
         return self._train(model, self.data_["X_low"], self.data_["y_low"], X_high, y_high)
 
     def _period_predictions(self, n_folds: int, hyperparameters=None) -> np.ndarray:
@@ -137,18 +140,13 @@ class CoKriging(RegressorMixin, BaseEstimator):
             out[test] = batched(model.predict_values, self.standardizer_.transform(X[test]))
         return out
 
-    def _period_error(self, hyperparameters) -> float:
-        """RMSE on the parts, each predicted without its period (:data:`SEARCH_FOLDS` periods)."""
-        return float(
-            np.sqrt(np.mean((self._period_predictions(SEARCH_FOLDS, hyperparameters) - self.data_["y_high"]) ** 2))
-        )
-
     def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
         """Per high-fidelity row (in ``training_rows_`` order, which is time order): co-kriging, its
         hyperparameters fixed, refitted without that row's period (``n_folds`` folds of consecutive rows; the
         simulations kept; ``seed`` unused)."""
         check_is_fitted(self, "mfk_")
-        return self._period_predictions(n_folds)
+        kept = getattr(self, "period_predictions_", {}).get(n_folds)
+        return kept.copy() if kept is not None else self._period_predictions(n_folds)
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "mfk_")
