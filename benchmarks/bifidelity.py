@@ -119,17 +119,22 @@ def workflow_run(case: dict, folder: Path, seed: int) -> tuple[pd.DataFrame, pd.
     return predictions, residuals, {"config": config, "threshold": threshold}
 
 
+def plant_case(case: dict):
+    """The plant as the in-memory steps take it (:class:`harness.Run`): no hidden cause to find."""
+    from hybridtwin.demo.families import Expected, PlantCase
+
+    return PlantCase(
+        "bifidelity", "", case["doe"], case["production"], case["truth"], case["inputs"], TARGET, Expected(None),
+        case["noise"],
+    )  # fmt: skip
+
+
 def in_memory_run(case: dict, seed: int, n_jobs: int) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     """The workflow's steps in memory (:class:`harness.Run`, a fixed XGBoost setting in place of the tuning)."""
     from hybridtwin import diagnosis
     from hybridtwin.demo import harness
-    from hybridtwin.demo.families import Expected, PlantCase
 
-    plant_case = PlantCase(
-        "bifidelity", "", case["doe"], case["production"], case["truth"], case["inputs"], TARGET, Expected(None),
-        case["noise"],
-    )  # fmt: skip
-    run = harness.Run.of(plant_case, seed, n_jobs)
+    run = harness.Run.of(plant_case(case), seed, n_jobs)
     result = run.diagnose(diagnosis.Settings(seed=seed, n_jobs=n_jobs))
     predictions = run.predictions(result.terms)
     return predictions, run.residuals, {"config": run.config, "threshold": run.support.gate.threshold_}

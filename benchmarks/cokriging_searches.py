@@ -26,12 +26,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from bifidelity import FUNCTIONS, TARGET, plant
+from bifidelity import FUNCTIONS, TARGET, plant, plant_case
 from plain_baselines import PlainMFK
 from results_files import write_results
 
 from hybridtwin.demo import harness
-from hybridtwin.demo.families import Expected, PlantCase
 from hybridtwin.models.cokriging import CoKriging
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -41,11 +40,7 @@ N_FOLDS = 5
 
 def in_support(case: dict, seed: int) -> np.ndarray:
     """The workflow's gate on the plant (the in-memory steps)."""
-    plant_case = PlantCase(
-        "bifidelity", "", case["doe"], case["production"], case["truth"], case["inputs"], TARGET, Expected(None),
-        case["noise"],
-    )  # fmt: skip
-    return harness.Run.of(plant_case, seed, 2).residuals["in_support"].to_numpy(bool)
+    return harness.Run.of(plant_case(case), seed, 2).residuals["in_support"].to_numpy(bool)
 
 
 def honest(model, X: pd.DataFrame, inside_rows: np.ndarray, trained: np.ndarray, out_of_fold) -> np.ndarray:
