@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 FLOAT_FORMAT = "%.8g"
+LINES_PER_WRITE = 100_000  # quoted tables: lines joined in Python a batch at a time, not a whole log at once
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -176,12 +177,24 @@ def _as_arrow_text(frame: pd.DataFrame, digits: int | None, sep: str):
                 if not all(isinstance(value, str) or value is None for value in values.tolist()):
                     return None
                 text = pa.array(values, type=pa.string())
-            if pc.any(pc.match_substring_regex(text, _quoted_pattern(sep))).as_py():
-                return None
+            if pc.any(pc.match_substring(text, "\r")).as_py():
+                return None  # whether a lone carriage return is quoted depends on the Python version
+            text = _quoted_where_needed(text, sep)
         else:
             return None  # dates, categories, mixed objects...: pandas knows how it writes them
         columns[name] = text
     return columns
+
+
+def _quoted_where_needed(text, sep: str):
+    """Text holding the separator, a quote or a line break in quotes, its quotes doubled: as pandas writes it."""
+    import pyarrow.compute as pc
+
+    needs = pc.match_substring_regex(text, "[" + re.escape(sep) + '"\\n]')
+    if not pc.any(needs).as_py():
+        return text
+    quoted = pc.binary_join_element_wise('"', pc.replace_substring(text, '"', '""'), '"', "")
+    return pc.if_else(needs, quoted, text)
 
 
 def _quoted_pattern(sep: str) -> str:
@@ -194,13 +207,20 @@ def _needs_quotes(text: str, sep: str) -> bool:
 
 def _write_text_columns(columns: dict, path, sep: str) -> None:
     import pyarrow as pa
+    import pyarrow.compute as pc
     import pyarrow.csv as arrow_csv
 
-    table = pa.table(columns)
-    options = arrow_csv.WriteOptions(include_header=False, delimiter=sep, quoting_style="none")
     with open(path, "wb") as handle:
         handle.write((sep.join(columns) + "\n").encode())  # Arrow would quote the names
-        arrow_csv.write_csv(table, handle, options)
+        if not any(pc.any(pc.match_substring(text, '"')).as_py() for text in columns.values()):
+            options = arrow_csv.WriteOptions(include_header=False, delimiter=sep, quoting_style="none")
+            arrow_csv.write_csv(pa.table(columns), handle, options)
+            return
+        # quoted text, which Arrow's writer refuses unquoted: the lines joined here, a batch at a time
+        lines = pc.binary_join_element_wise(*columns.values(), sep, null_handling="replace")
+        for start in range(0, len(lines), LINES_PER_WRITE):
+            batch = lines.slice(start, LINES_PER_WRITE).to_pylist()
+            handle.write(("\n".join(batch) + "\n").encode())
 
 
 def read_checked(path, columns=None) -> pd.DataFrame:
