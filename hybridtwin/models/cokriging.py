@@ -12,7 +12,8 @@ consecutive parts). The chosen search's predictions there are also its out-of-fo
 score on its own parts is the best of ``n_searches`` and slightly optimistic. The best hyperparameters are held
 while the model is refitted on all ``n_fit`` parts (one likelihood evaluation per level): campaigns are narrow, and
 each one's discrepancy is better known from more of its parts. It stores its training data and hyperparameters as
-JSON and is rebuilt from them exactly.
+JSON with the trained AR1 model's predictor (:func:`ar1_state`), which :func:`ar1_mean` evaluates in numpy: a
+reloaded model predicts without SMT, its import or a refit.
 """
 
 from __future__ import annotations
@@ -48,6 +49,37 @@ def _mfk_class():
 
 
 SEARCH_FOLDS = 5  # periods on which the searches' hyperparameters are compared
+
+
+def ar1_state(mfk) -> dict:
+    """What a trained SMT MFK (continuous inputs, constant trends, squared-exponential kernel) predicts its mean
+    from: its input and output scaling, and per level the training inputs, length scales and kriging weights."""
+    levels = [
+        {
+            "X": mfk.X_norma_all[level].tolist(),
+            "theta": np.ravel(mfk.optimal_theta[level]).tolist(),
+            "beta": np.ravel(mfk.optimal_par[level]["beta"]).tolist(),
+            "gamma": np.ravel(mfk.optimal_par[level]["gamma"]).tolist(),
+        }
+        for level in range(mfk.nlvl)
+    ]
+    scaling = {key: np.ravel(getattr(mfk, key)).tolist() for key in ("X_offset", "X_scale", "y_mean", "y_std")}
+    return {**scaling, "levels": levels}
+
+
+def ar1_mean(state: dict, X: np.ndarray) -> np.ndarray:
+    """SMT's MFK mean prediction (``_predict_intermediate_values``), evaluated in numpy: level 0 is a kriging of
+    the simulations; each next level is rho times the level below plus its own kriging of the difference."""
+    X = (np.asarray(X, float) - state["X_offset"]) / np.asarray(state["X_scale"])
+    mean = None
+    for level in state["levels"]:
+        scale = np.sqrt(level["theta"])  # exp(-sum theta (x - x')^2) as a squared distance of scaled inputs
+        here, there = X * scale, np.asarray(level["X"]) * scale
+        squared = (here**2).sum(1)[:, None] + (there**2).sum(1)[None, :] - 2 * here @ there.T
+        kriging = np.exp(-np.maximum(squared, 0.0)) @ np.asarray(level["gamma"])
+        beta = level["beta"]
+        mean = beta[0] + kriging if mean is None else beta[0] * mean + beta[1] + kriging
+    return mean * state["y_std"][0] + state["y_mean"][0]
 
 
 class CoKriging(RegressorMixin, BaseEstimator):
@@ -113,7 +145,9 @@ class CoKriging(RegressorMixin, BaseEstimator):
         self.hyperparameters_, self.hyper_rows_ = found[best], draws[best]
         # the chosen search's out-of-period predictions, kept: out_of_fold on the same periods would refit them
         self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
-        self.mfk_ = self._refit()
+        final = self._refit()
+        self.likelihood_ = float(final.optimal_rlf_value[-1])  # of the chosen hyperparameters on every part
+        self.state_ = ar1_state(final)
         return self
 
     def _search(self, X_high, y_high, seed: int) -> list[list[float]]:
@@ -136,32 +170,33 @@ class CoKriging(RegressorMixin, BaseEstimator):
         X, y = self.data_["X_high"], self.data_["y_high"]
         out = np.empty(len(y))
         for train, test in period_folds(len(y), n_folds):
-            model = self._refit(X[train], y[train], hyperparameters)
-            out[test] = batched(model.predict_values, self.standardizer_.transform(X[test]))
+            state = ar1_state(self._refit(X[train], y[train], hyperparameters))
+            out[test] = ar1_mean(state, self.standardizer_.transform(X[test]))
         return out
 
     def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
         """Per high-fidelity row (in ``training_rows_`` order, which is time order): co-kriging, its
         hyperparameters fixed, refitted without that row's period (``n_folds`` folds of consecutive rows; the
         simulations kept; ``seed`` unused)."""
-        check_is_fitted(self, "mfk_")
+        check_is_fitted(self, "state_")
         kept = getattr(self, "period_predictions_", {}).get(n_folds)
         return kept.copy() if kept is not None else self._period_predictions(n_folds)
 
     def predict(self, X) -> np.ndarray:
-        check_is_fitted(self, "mfk_")
+        check_is_fitted(self, "state_")
         X = self.standardizer_.transform(input_matrix(self, X))
-        return batched(self.mfk_.predict_values, X)
+        return batched(lambda rows: ar1_mean(self.state_, rows), X)
 
     def to_dict(self) -> dict:
         return {
-            "format": "hybridtwin.CoKriging/1",
+            "format": "hybridtwin.CoKriging/2",
             "params": self.get_params(),
             "inputs": input_names(self),
             "standardizer": self.standardizer_.to_dict(),
             "hyperparameters": self.hyperparameters_,
             "training_rows": self.training_rows_.tolist(),
             "data": {key: value.tolist() for key, value in self.data_.items()},
+            "state": self.state_,
         }
 
     @classmethod
@@ -173,5 +208,6 @@ class CoKriging(RegressorMixin, BaseEstimator):
         model.hyperparameters_ = data["hyperparameters"]
         model.training_rows_ = np.asarray(data["training_rows"], int)
         restore_inputs(model, data)
-        model.mfk_ = model._refit()
+        # a model stored before its predictor was (format 1) is refitted with its hyperparameters held
+        model.state_ = data["state"] if "state" in data else ar1_state(model._refit())
         return model
