@@ -70,7 +70,7 @@ def plant_rows(function: str, seed: int) -> list[dict]:
         with contextlib.redirect_stdout(io.StringIO()):
             model.fit(X.iloc[rows_in], y[rows_in], X_low=doe[case["inputs"]], y_low=doe[TARGET])
         fitted[name] = (
-            honest(model, X, rows_in, model.training_rows_, lambda m=model: m.out_of_fold(N_FOLDS, seed)),
+            honest(model, X, rows_in, model.training_rows_, lambda m=model: m.out_of_fold(N_FOLDS)),
             time.perf_counter() - start,
         )
     rows = []

@@ -57,7 +57,7 @@ def honest(model, run: harness.Run, case) -> np.ndarray:
     model.fit(X.iloc[inside], residuals["residual_approx"].to_numpy(float)[inside])
     out = model.predict(X) + surrogate
     trained = inside[model.training_rows_]
-    out[trained] = model.out_of_fold(5, 0) + surrogate[trained]
+    out[trained] = model.out_of_fold(5) + surrogate[trained]
     return out
 
 

@@ -1,5 +1,7 @@
 """The established peers on small constructed cases with a known smooth discrepancy."""
 
+import time
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -122,8 +124,8 @@ def test_cokriging_keeps_the_search_whose_model_predicts_unseen_periods_best(cas
             held_out[test] = refit.predict_values(model.standardizer_.transform(model.data_["X_high"][test])).ravel()
         assert error == pytest.approx(_rmse(held_out, y), rel=1e-6)
         if hyperparameters == model.hyperparameters_:  # the chosen search's are its out-of-fold values there
-            assert np.allclose(model.out_of_fold(5, 0), held_out)
-    assert np.allclose(model.out_of_fold(4, 0), model._period_predictions(4))  # other periods: refitted
+            assert np.allclose(model.out_of_fold(5), held_out)
+    assert np.allclose(model.out_of_fold(4), model._period_predictions(4))  # other periods: refitted
     # each search drew its own parts of the same rows; the chosen draw is kept
     assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     single = CoKriging(n_high=60, n_fit=300, n_start=1, n_searches=1).fit(
@@ -167,10 +169,10 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     parts = case["parts"]
     doe, residuals = _peer_frames(case, np.arange(len(parts)) % 2 == 0)
     settings = {"gp_n_hyper": 100, "gp_n_fit": 200, "max_predicted": 1000}
-    fit = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
+    fit = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0, n_folds=5)
     predicted = np.isfinite(fit.production["pred_gp_discrepancy"].to_numpy())
     assert predicted.sum() == 1000
-    again = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0)
+    again = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0, n_folds=5)
     assert np.array_equal(np.isfinite(again.production["pred_gp_discrepancy"]), predicted)  # seeded
     honest = fit.production["pred_gp_discrepancy_oof"].to_numpy()
     trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
@@ -179,7 +181,7 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     assert np.array_equal(honest[elsewhere], fit.production["pred_gp_discrepancy"].to_numpy()[elsewhere])
     # without a limit every row is predicted, and the sample's values are the same
     full = peers.fit_peer(
-        "gp_discrepancy", doe, parts, residuals, COLUMNS, "y", {**settings, "max_predicted": 10**6}, 0
+        "gp_discrepancy", doe, parts, residuals, COLUMNS, "y", {**settings, "max_predicted": 10**6}, 0, 5
     )
     assert np.isfinite(full.production["pred_gp_discrepancy"]).all()
     np.testing.assert_allclose(
@@ -218,7 +220,7 @@ def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(ca
         assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     again = type(model).from_dict(model.to_dict())
     assert np.array_equal(again.training_rows_, model.training_rows_)
-    np.testing.assert_array_equal(again.out_of_fold(3, 4), model.out_of_fold(3, 4))
+    np.testing.assert_array_equal(again.out_of_fold(3), model.out_of_fold(3))
 
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):
@@ -304,7 +306,7 @@ def test_a_peer_is_its_seeds_and_its_stored_form_reloads_by_column_name(case, ki
     assert type(loaded) is type(fit.model)
     np.testing.assert_array_equal(loaded.predict(case["new"][COLUMNS[::-1]]), fit.model.predict(case["new"]))
     with pytest.raises(ValueError, match=f"^unknown peer 'kriging'; one of {', '.join(registry.PEER_NAMES)}$"):
-        peers.fit_peer("kriging", doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3)
+        peers.fit_peer("kriging", doe, case["parts"], residuals, COLUMNS, "y", settings, seed=3, n_folds=5)
 
 
 @pytest.mark.skipif(not hasattr(__import__("os"), "sched_setaffinity"), reason="no CPU affinity on this platform")
@@ -333,6 +335,33 @@ def test_a_model_missing_on_far_regions_does_not_empty_the_comparisons_out_of_su
     assert outside_rows["stack"] == [11, 12]
     # in support every model covers at least half: the rows all three share
     assert np.flatnonzero(rows["hybrid"] & inside).tolist() == [1, 2, 3, 4, 6, 7, 8, 9]
+
+
+def test_models_valued_on_exactly_half_of_a_side_set_its_shared_rows_and_a_side_without_test_rows_is_skipped():
+    inside = np.r_[np.ones(4, bool), np.zeros(4, bool)]
+    valued = {"hybrid": np.ones(8, bool), "half": np.array([1, 1, 0, 0, 1, 1, 0, 0], bool)}
+    rows = peers.shared_rows(valued, inside, np.ones(8, bool))
+    assert rows["hybrid"].tolist() == rows["half"].tolist() == [1, 1, 0, 0, 1, 1, 0, 0]  # half is broad enough
+    # no test row in support: the out-of-support side is still scored
+    rows = peers.shared_rows(valued, inside, ~inside)
+    assert rows["hybrid"].tolist() == [0, 0, 0, 0, 1, 1, 0, 0]
+    # no model valued on half a side: each on its own rows there
+    sparse = {"a": np.array([1, 0, 0, 0, 1, 0, 0, 0], bool), "b": np.array([0, 1, 0, 0, 0, 0, 0, 0], bool)}
+    rows = peers.shared_rows(sparse, inside, np.ones(8, bool))
+    assert rows["a"].tolist() == sparse["a"].tolist() and rows["b"].tolist() == sparse["b"].tolist()
+
+
+@pytest.mark.parametrize("kind", registry.PEER_NAMES)
+def test_a_fitted_peer_predicts_the_measured_value_and_its_fit_time_is_part_of_the_call(case, kind):
+    parts = case["parts"]
+    doe, residuals = _peer_frames(case, np.arange(len(parts)) % 2 == 0)
+    settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150, "cokriging_n_start": 1}
+    start = time.perf_counter()
+    fit = peers.fit_peer(kind, doe, parts, residuals, COLUMNS, "y", {**settings, "cokriging_n_searches": 1}, 3, 3)
+    assert 0 < fit.fit_seconds < time.perf_counter() - start
+    truth, simulated = plant(parts.to_numpy()), simulator(parts.to_numpy())
+    for column in (f"pred_{kind}", f"pred_{kind}_oof"):  # the plant's values, not its discrepancy alone
+        assert _rmse(fit.production[column], truth) < 0.25 * _rmse(simulated, truth)
 
 
 def _campaign_plant(seed: int):

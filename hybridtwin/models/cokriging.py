@@ -174,10 +174,10 @@ class CoKriging(RegressorMixin, BaseEstimator):
             out[test] = ar1_mean(state, self.standardizer_.transform(X[test]))
         return out
 
-    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+    def out_of_fold(self, n_folds: int) -> np.ndarray:
         """Per high-fidelity row (in ``training_rows_`` order, which is time order): co-kriging, its
         hyperparameters fixed, refitted without that row's period (``n_folds`` folds of consecutive rows; the
-        simulations kept; ``seed`` unused)."""
+        simulations kept)."""
         check_is_fitted(self, "state_")
         kept = getattr(self, "period_predictions_", {}).get(n_folds)
         return kept.copy() if kept is not None else self._period_predictions(n_folds)

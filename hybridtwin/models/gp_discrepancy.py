@@ -55,10 +55,9 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         )
         return self
 
-    def out_of_fold(self, n_folds: int, seed: int) -> np.ndarray:
+    def out_of_fold(self, n_folds: int) -> np.ndarray:
         """Per training row (in ``training_rows_`` order, which is time order): the GP, its hyperparameters
-        fixed, refitted without that row's period (``n_folds`` folds of consecutive training rows; ``seed`` unused,
-        the split has no randomness)."""
+        fixed, refitted without that row's period (``n_folds`` folds of consecutive training rows)."""
         check_is_fitted(self, "gp_")
         state = self.gp_.to_dict()
         Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)

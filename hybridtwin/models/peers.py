@@ -8,7 +8,6 @@ hyperparameters in its CV folds), predicts, and stores itself as JSON (``to_dict
 
 from __future__ import annotations
 
-import copy
 import importlib
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -65,7 +64,7 @@ def fit_peer(
     target: str,
     settings: dict,
     seed: int,
-    n_folds: int = 5,
+    n_folds: int,
 ) -> PeerFit:
     """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
     ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on the parts it trained on, out of
@@ -89,24 +88,20 @@ def fit_peer(
     final[predicted] = as_target(name, model.predict(production.iloc[predicted][inputs]), surrogate[predicted])
     trained = inside[model.training_rows_]
     honest = final.copy()
-    honest[trained] = as_target(name, model.out_of_fold(n_folds, seed), surrogate[trained])
+    honest[trained] = as_target(name, model.out_of_fold(n_folds), surrogate[trained])
     return PeerFit(model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(trained))
 
 
 def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
     """Every peer's prediction of the target at ``X`` (the matched cases, say), given the surrogate there.
 
-    With ``n_jobs`` > 1 the rows are shared among as many threads (numpy's kernels release the GIL),
-    each with its own copy of the model: SMT's MFK sets its kernel's length scales as it predicts.
+    With ``n_jobs`` > 1 the rows are shared among as many threads (numpy's kernels release the GIL; a peer's
+    prediction changes nothing in the model).
     """
     stretches = chunks(len(X), n_jobs)
     if len(stretches) <= 1:
         return {name: as_target(name, model.predict(X), surrogate) for name, model in models.items()}
-    tasks = [
-        (name, model if i == 0 else copy.deepcopy(model), part)
-        for name, model in models.items()
-        for i, part in enumerate(stretches)
-    ]
+    tasks = [(name, model, part) for name, model in models.items() for part in stretches]
     with ThreadPoolExecutor(min(n_jobs, len(tasks))) as pool:
         parts = list(pool.map(lambda t: as_target(t[0], t[1].predict(X.iloc[t[2]]), surrogate[t[2]]), tasks))
     return {name: np.concatenate([p for (n, _, _), p in zip(tasks, parts) if n == name]) for name in models}
