@@ -278,7 +278,8 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     assert np.isnan(table.loc["hybrid", "n_train"])
     assert table["evaluated_on"].str.endswith("truth = the demo's noise-free plant").all()
     says(table["evaluated_on"].iloc[0], "test rows", "odd blocks", "even blocks", "the same rows for every model")
-    says(table["evaluated_on"].iloc[0], "matched cases never used for fitting")
+    says(table["evaluated_on"].iloc[0], "fewer than half of a side's rows", "for a peer on the parts it trained on")
+    says(table["evaluated_on"].iloc[0], "from models never trained there", "matched cases never used for fitting")
     assert "hybrid_unfiltered" not in table.index
     without = {m: p for m, p in predictions.items() if m != "cokriging"}
     plain = peers.comparison_table(measured, without, inside, test, matched_measured, matched, fits)

@@ -157,8 +157,7 @@ def comparison_table(
         matched,
         truth,
         noise,
-        test,
-        shared_rows({m: np.isfinite(predictions[m]) for m in names}, np.asarray(in_support, bool), test),
+        scored=shared_rows({m: np.isfinite(predictions[m]) for m in names}, np.asarray(in_support, bool), test),
     )
     # (fit times vary from run to run, so they stay out of the table: results/peers/<peer>.json and the benchmarks)
     table["n_train"] = table["model"].map({k: v["n_train"] for k, v in fits.items()})
