@@ -327,7 +327,8 @@ def test_the_id_rule_backfits_the_input_surface_and_the_smooth_quantities_and_pr
     rng = np.random.default_rng(3)
     n = 3000
     inputs = rng.uniform(-1, 1, (n, 2))
-    ambient, wear = rng.uniform(-1, 1, n), np.linspace(0, 1, n)
+    wear = np.linspace(0, 1, n)
+    ambient = 1.6 * (wear - 0.5) + rng.uniform(-0.5, 0.5, n)  # the weather warmed as the tool wore
     truth = 1.5 * inputs[:, 0] + inputs[:, 0] * inputs[:, 1] + 2.0 * ambient - 1.0 * wear
     y = truth + rng.normal(0, 0.05, n)
     train, test = np.arange(n) % 4 != 0, np.arange(n) % 4 == 0
@@ -395,3 +396,16 @@ def test_the_input_surface_is_shrunk_by_its_error_on_held_out_coils_not_on_rows(
     assert not stands and share > 0.9
     splits = ids.level_folds(group.values, SETTINGS.folds, SETTINGS.seed)
     assert ids.level_penalty(material, y, splits) >= 1e4  # the surface shrunk: the inputs hold nothing here
+
+
+def test_the_input_surface_is_a_quadratic_of_the_standardized_inputs_whatever_their_units():
+    rng = np.random.default_rng(5)
+    z = rng.normal(0, 1, (600, 2))
+    inputs = np.column_stack([0.005 + 0.001 * z[:, 0], 1000.0 * z[:, 1]])  # a thickness in m and a force in N
+    quadratic = z[:, 0] ** 2 + z[:, 0] * z[:, 1] - 0.5 * z[:, 1]
+    fitted = ids.surface(inputs, quadratic, penalty=1.0).predict(inputs)
+    assert np.sqrt(np.mean((fitted - quadratic) ** 2)) < 0.02 * quadratic.std()
+    # a cubic is beyond it: the surface is smooth by construction
+    cubic = z[:, 0] ** 3
+    left = cubic - ids.surface(inputs, cubic, penalty=1.0).predict(inputs)
+    assert left.std() > 0.5 * cubic.std()

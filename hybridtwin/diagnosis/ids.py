@@ -35,11 +35,14 @@ MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets togethe
 PASSES = 3  # backfitting passes of the surface and the smooth candidates
 
 
+def _quadratic(regression):
+    """A regression on the standardized inputs, their squares and their products."""
+    return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), regression)
+
+
 def surface(inputs: np.ndarray, y: np.ndarray, penalty: float):
     """A quadratic surface of the standardized inputs (ridge, :func:`level_penalty`)."""
-    return make_pipeline(StandardScaler(), PolynomialFeatures(2, include_bias=False), Ridge(alpha=penalty)).fit(
-        inputs, y
-    )
+    return _quadratic(Ridge(alpha=penalty)).fit(inputs, y)
 
 
 def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -86,11 +89,7 @@ def level_penalty(inputs: np.ndarray, y, splits) -> float:
     that are constant within a level (the material of a coil): held out by level, such a surface predicted the
     other coils' offsets worse than no surface at all (a per-coil oil film's coil offsets: twice their spread).
     """
-    search = make_pipeline(
-        StandardScaler(),
-        PolynomialFeatures(2, include_bias=False),
-        RidgeCV(alphas=LEVEL_PENALTIES, cv=splits, scoring="neg_mean_squared_error"),
-    )
+    search = _quadratic(RidgeCV(alphas=LEVEL_PENALTIES, cv=splits, scoring="neg_mean_squared_error"))
     return float(search.fit(inputs, y).steps[-1][1].alpha_)
 
 
