@@ -4,17 +4,27 @@
     python benchmarks/mutation.py --modules forms    # rerun one module's mutants, keep the others' verdicts
     python benchmarks/mutation.py --modules forms --survivors  # rerun its survivors only, after adding tests
     python benchmarks/mutation.py --report           # only re-read the results of the last run in mutants/
+    python benchmarks/mutation.py --sample 30        # after an unfinished run: a seeded sample of each module's
+                                                     # mutants not yet run, and each module's rate estimated
 
 mutmut (its settings: ``[tool.mutmut]`` in pyproject.toml) copies the package to ``mutants/``, changes one
 operator, constant or call at a time, and runs the fast tests that reach the changed function. A mutant
 is killed when a test fails. Mutants that cannot change any result (equivalent) are listed with their
 reason in ``benchmarks/mutation_equivalent.txt`` and left out of the rate; the rest of the survivors,
 and the mutants no fast test reaches, count against it. Writes ``benchmarks/results/mutation.md``.
+
+A fresh run of every mutant takes hours on 2 cores: mutmut runs the mutants with the fastest tests first, and a
+mutant of the diagnosis' fits or forms takes its 20 tests (about 45 s). ``--sample N`` runs, per module with
+mutants not yet run, a seeded random sample of N of them (recorded in ``mutants/sample.json``). The module's rate
+is then estimated by strata: the mutants run before, counted, and the rest at the sample's rate, with the 95%
+Clopper-Pearson interval of that rate.
 """
 
 import argparse
 import ast
+import json
 import os
+import random
 import re
 import shutil
 import subprocess
@@ -23,8 +33,11 @@ import tomllib
 from collections import Counter
 from pathlib import Path
 
+from scipy.stats import beta
+
 ROOT = Path(__file__).resolve().parent.parent
 EQUIVALENT = ROOT / "benchmarks" / "mutation_equivalent.txt"
+SAMPLE = ROOT / "mutants" / "sample.json"
 OUT = ROOT / "benchmarks" / "results" / "mutation.md"
 GOAL = 0.85
 UNKILLED = ("survived", "no tests")  # mutmut's states of a mutant no fast test failed on
@@ -50,6 +63,22 @@ def run_mutmut(children: int, modules: list[str], survivors_only: bool = False) 
             return
     command = ["mutmut", "run", "--max-children", str(children), *selection]
     subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
+
+
+def run_sample(children: int, modules: list[str], size: int, seed: int) -> None:
+    """A seeded sample of ``size`` not-yet-run mutants of each module (of ``modules``, or of every one), run and
+    recorded with the module's mutants not yet run before it."""
+    unrun: dict[str, list[str]] = {}
+    for name, state in statuses().items():
+        if state == "not checked" and (not modules or module_of(name) in modules):
+            unrun.setdefault(module_of(name), []).append(name)
+    draw = random.Random(seed)
+    sample = {module: sorted(draw.sample(sorted(names), min(size, len(names)))) for module, names in unrun.items()}
+    SAMPLE.write_text(json.dumps({"seed": seed, "unrun": unrun, "sample": sample}, indent=1))
+    chosen = [name for names in sample.values() for name in names]
+    if chosen:
+        command = ["mutmut", "run", "--max-children", str(children), *chosen]
+        subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
 
 
 def statuses() -> dict[str, str]:
@@ -127,7 +156,39 @@ def module_of(mutant: str) -> str:
     return ".".join(mutant.split(".")[1:-1])
 
 
-def table(status: dict[str, str], equivalent: dict[str, str]) -> list[str]:
+def kinds(status: dict[str, str], equivalent: dict[str, str], names) -> Counter:
+    """How many of ``names`` were killed, timed out, survived, ... or are equivalent."""
+    return Counter("equivalent" if name in equivalent else status[name] for name in names)
+
+
+def detected_share(count: Counter) -> tuple[int, int]:
+    """(mutants detected, mutants judged): killed or timed out, of all run less the equivalent ones."""
+    judged = sum(count.values()) - count["equivalent"] - count["not checked"]
+    return count["killed"] + count["timeout"], judged
+
+
+def sampled_rate(status, equivalent, unrun: list[str], sample: list[str]) -> tuple[float, float, float, int]:
+    """A module's kill rate by strata: the mutants run before the sample counted, those still not run at the
+    sample's rate (its equivalent share too); with the rate's 95% Clopper-Pearson bounds. Returns (rate, low,
+    high, sample judged)."""
+    module = module_of(sample[0])
+    everyone = [name for name in status if module_of(name) == module]
+    before = set(everyone) - set(unrun)
+    known_detected, known_judged = detected_share(kinds(status, equivalent, before))
+    in_sample = kinds(status, equivalent, sample)
+    detected, judged = detected_share(in_sample)
+    rest = len(unrun) - len(sample)
+    rest_judged = rest * judged / max(judged + in_sample["equivalent"], 1)
+
+    def rate(p: float) -> float:
+        return (known_detected + detected + rest_judged * p) / (known_judged + judged + rest_judged)
+
+    low = beta.ppf(0.025, detected, judged - detected + 1) if detected else 0.0
+    high = beta.ppf(0.975, detected + 1, judged - detected) if detected < judged else 1.0
+    return rate(detected / judged if judged else float("nan")), rate(low), rate(high), judged
+
+
+def table(status: dict[str, str], equivalent: dict[str, str], sampled: dict | None = None) -> list[str]:
     counts: dict[str, Counter] = {}
     for name, state in status.items():
         kind = "equivalent" if name in equivalent else state
@@ -138,10 +199,12 @@ def table(status: dict[str, str], equivalent: dict[str, str]) -> list[str]:
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for module, count in sorted(counts.items()):
-        detected = count["killed"] + count["timeout"]
-        judged = sum(count.values()) - count["equivalent"] - count["not checked"]
+        detected, judged = detected_share(count)
         rate = detected / judged if judged else float("nan")
         verdict = " (of those run so far)" if count["not checked"] else ""
+        if count["not checked"] and sampled and sampled["sample"].get(module):
+            rate, low, high, n = sampled_rate(status, equivalent, sampled["unrun"][module], sampled["sample"][module])
+            verdict = f" (estimated: those not yet run at the rate of {n} drawn; 95%: {low:.1%} to {high:.1%})"
         verdict += "" if rate >= GOAL else " (below goal)"
         lines.append(
             f"| {module} | {sum(count.values())} | {count['not checked']} | {count['killed']} | {count['timeout']}"
@@ -155,13 +218,17 @@ def main() -> int:
     parser.add_argument("--report", action="store_true", help="only summarize the last run")
     parser.add_argument("--children", type=int, default=2)
     parser.add_argument("--modules", nargs="*", default=[], help="rerun only these modules' mutants (e.g. forms)")
+    parser.add_argument("--sample", type=int, default=0, help="run N drawn mutants per module not yet run")
+    parser.add_argument("--seed", type=int, default=0, help="the sample's seed")
     parser.add_argument(
         "--survivors", action="store_true", help="with --modules: rerun only their survivors (after adding tests)"
     )
     args = parser.parse_args()
     if args.survivors and not args.modules:
         parser.error("--survivors needs --modules")
-    if not args.report:
+    if args.sample:
+        run_sample(args.children, args.modules, args.sample, args.seed)
+    elif not args.report:
         run_mutmut(args.children, args.modules, args.survivors)
     status = statuses()
     changes = {
@@ -185,7 +252,7 @@ def main() -> int:
         f"reaches counts as a survivor. Goal: at least {GOAL:.0%} in every module. Equivalent mutants, each with",
         "its reason: `mutation_equivalent.md`; the survivors to work on: `mutation_survivors.md`.",
         "",
-        *table(status, equivalent),
+        *table(status, equivalent, json.loads(SAMPLE.read_text()) if SAMPLE.exists() else None),
     ]
     if stale:
         lines += ["", "Listed as equivalent but not a survivor of this run (the list is stale):", *stale]

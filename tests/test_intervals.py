@@ -535,3 +535,76 @@ def test_the_table_says_whether_each_regions_choice_held_on_its_test_blocks():
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
     best = coverage.best_on_test(measured, honest, region, calibration, fitted)
     assert fitted.recommended == {"in_support": "hybrid"} and best == {"in_support": "gp_discrepancy"}
+
+
+def test_stored_intervals_reload_to_the_same_answers_and_older_files_read_as_before_their_keys():
+    import json
+
+    from hybridtwin.answers import trust
+
+    inside, distance, _, truth, measured = plant(n=8000, seed=4)
+    rng = np.random.default_rng(4)
+    beyond_range = inside & (rng.random(len(inside)) < 0.3)  # in the gate, beyond a DoE range
+    region = regions.Regions.of(inside, beyond_range, distance, [2.0], beyond_region=True)
+    calibration = regions.calibration_rows(len(inside), 40)
+    honest = {"hybrid": truth + rng.normal(0, 1.5, len(truth)), "gp_discrepancy": truth + rng.normal(0, 1, len(truth))}
+    reach = trust.Reach(1.0, 2.9, {"t": (-0.5, 0.7)}, {"t": (0.0, 1.0)}, {"t": "mm"})
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [2.0], distance, reach=reach)
+    assert fitted.beyond_region and fitted.weights and fitted.max_distance == 2.9 and fitted.reach == reach.beyond
+    stored = json.loads(json.dumps(fitted.to_dict()))
+    again = intervals.RegionIntervals.from_dict(stored)
+    assert json.loads(json.dumps(again.to_dict())) == stored
+    answers, again_answers = (
+        intervals.recommended_prediction(model, model.with_stack(honest, region), region, LEVEL)
+        for model in (fitted, again)
+    )
+    pd.testing.assert_frame_equal(answers, again_answers)
+    assert answers["pred_lower"].notna().all()
+    # a file written before the stack, the calibrated reach and the region beyond the DoE's ranges were stored
+    later_keys = ("stack_weights", "calibrated_reach", "beyond_region")
+    older = intervals.RegionIntervals.from_dict({key: value for key, value in stored.items() if key not in later_keys})
+    assert older.weights == {} and older.reach == {} and older.beyond_region is False
+
+
+def test_models_without_a_row_in_common_are_each_ranked_on_their_own_rows():
+    from hybridtwin.models import registry
+
+    rng = np.random.default_rng(6)
+    truth = rng.normal(0, 3, 400)
+    measured = truth + rng.normal(0, 1, 400)
+    first_half = np.arange(400) < 200
+    early, late = registry.RECOMMENDABLE[0], registry.RECOMMENDABLE[1]
+    candidates = {
+        early: np.where(first_half, truth + rng.normal(0, 2, 400), np.nan),  # the worse, first in the registry
+        late: np.where(first_half, np.nan, truth),
+    }
+    assert intervals._ranking(measured, candidates, np.arange(400)) == [late, early]
+
+
+def test_a_region_with_fewer_parts_than_two_stack_fits_gets_no_stack_but_its_intervals():
+    from hybridtwin.answers.regions import MIN_CALIBRATION_ROWS
+
+    rng = np.random.default_rng(7)
+    n = 4 * MIN_CALIBRATION_ROWS - 2  # half of it calibrates: one part short of the stack's two fits
+    truth = rng.normal(0, 3, n)
+    measured = truth + rng.normal(0, 1, n)
+    honest = {"hybrid": truth + rng.normal(0, 0.5, n), "gp_discrepancy": truth + rng.normal(0, 0.8, n)}
+    region = np.full(n, "in_support", dtype=object)
+    calibration = np.arange(n) % 2 == 0
+    assert calibration.sum() == 2 * MIN_CALIBRATION_ROWS - 1
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
+    assert fitted.weights == {} and "stack" not in fitted.calibration
+    assert set(fitted.calibration) == {"hybrid", "gp_discrepancy"} and fitted.ranking["in_support"][0] == "hybrid"
+    one_more = np.r_[calibration, True]
+    grown_honest = {m: np.r_[p, 0.0] for m, p in honest.items()}
+    grown_region = np.append(region, "in_support")
+    grown = intervals.RegionIntervals.fit(np.r_[measured, 0.0], grown_honest, grown_region, one_more, [])
+    assert set(grown.weights) == {"in_support"}  # at twice the least calibration, the stack is fitted
+
+
+def test_a_subsample_is_distinct_sorted_calibration_rows_and_the_seed_s():
+    rows = np.arange(0, 300, 3)
+    drawn = intervals.subsample(rows, 60, seed=2)
+    assert len(np.unique(drawn)) == 60 and np.isin(drawn, rows).all() and (np.diff(drawn) > 0).all()
+    assert np.array_equal(intervals.subsample(rows, 60, seed=2), drawn)
+    assert np.array_equal(intervals.subsample(rows, 100, seed=2), rows)
