@@ -608,3 +608,10 @@ def test_a_subsample_is_distinct_sorted_calibration_rows_and_the_seed_s():
     assert len(np.unique(drawn)) == 60 and np.isin(drawn, rows).all() and (np.diff(drawn) > 0).all()
     assert np.array_equal(intervals.subsample(rows, 60, seed=2), drawn)
     assert np.array_equal(intervals.subsample(rows, 100, seed=2), rows)
+
+
+def test_a_blend_takes_the_members_of_non_zero_weight_whatever_their_weight():
+    assert stack.members({"hybrid": 1.0, "gp_discrepancy": 0.0, "cokriging": -0.2}) == ["hybrid", "cokriging"]
+    predictions = {"hybrid": np.array([1.0, 2.0]), "cokriging": np.array([10.0, 20.0])}  # no GP value needed
+    blended = stack.blend({"hybrid": 1.0, "gp_discrepancy": 0.0, "cokriging": -0.2}, predictions, np.array([1]))
+    assert blended.tolist() == pytest.approx([2.0 - 4.0])
