@@ -67,6 +67,12 @@ def ar1_state(mfk) -> dict:
     return {**scaling, "levels": levels}
 
 
+def _as_arrays(state: dict) -> dict:
+    """The stored predictor's lists as arrays, converted once rather than per batch of rows."""
+    scaling = {key: np.asarray(value, float) for key, value in state.items() if key != "levels"}
+    return {**scaling, "levels": [{key: np.asarray(v, float) for key, v in level.items()} for level in state["levels"]]}
+
+
 def ar1_mean(state: dict, X: np.ndarray) -> np.ndarray:
     """SMT's MFK mean prediction (``_predict_intermediate_values``), evaluated in numpy: level 0 is a kriging of
     the simulations; each next level is rho times the level below plus its own kriging of the difference."""
@@ -185,7 +191,8 @@ class CoKriging(RegressorMixin, BaseEstimator):
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "state_")
         X = self.standardizer_.transform(input_matrix(self, X))
-        return batched(lambda rows: ar1_mean(self.state_, rows), X)
+        state = _as_arrays(self.state_)
+        return batched(lambda rows: ar1_mean(state, rows), X)
 
     def to_dict(self) -> dict:
         return {
