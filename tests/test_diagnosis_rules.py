@@ -409,3 +409,19 @@ def test_the_input_surface_is_a_quadratic_of_the_standardized_inputs_whatever_th
     cubic = z[:, 0] ** 3
     left = cubic - ids.surface(inputs, cubic, penalty=1.0).predict(inputs)
     assert left.std() > 0.5 * cubic.std()
+
+
+def test_columns_fitted_together_predict_their_sum_on_held_out_rows_whatever_their_offsets():
+    rng = np.random.default_rng(8)
+    a, b = rng.uniform(10, 20, 600), rng.uniform(100, 120, 600)  # far from zero: each form's mean is large
+    y = 5.0 + 2.0 * a - 3.0 * b
+    splits = [(np.arange(600)[np.arange(600) % 2 == k], np.arange(600)[np.arange(600) % 2 != k]) for k in (0, 1)]
+    held_out = naming.held_out_sum([_smooth("a", a), _smooth("b", b)], splits, y)
+    assert np.abs(held_out - y).max() < 1e-6
+
+
+def test_elapsed_time_and_a_product_count_more_parameters_than_they_have():
+    column, clock = _smooth("strokes", np.arange(50.0)), _smooth("hours", np.arange(50.0), kind="time")
+    product = _smooth("a*b", np.arange(50.0), kind="interaction")
+    own = naming._complexity(column)
+    assert naming._complexity(clock) == naming._complexity(product) == own + naming.PROXY_PENALTY > own
