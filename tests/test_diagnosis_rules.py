@@ -425,3 +425,28 @@ def test_elapsed_time_and_a_product_count_more_parameters_than_they_have():
     product = _smooth("a*b", np.arange(50.0), kind="interaction")
     own = naming._complexity(column)
     assert naming._complexity(clock) == naming._complexity(product) == own + naming.PROXY_PENALTY > own
+
+
+def test_a_product_that_adds_nothing_is_dropped_only_once_an_id_is_chosen():
+    rng = np.random.default_rng(9)
+    n = 2000
+    temp, other = rng.uniform(20, 50, n), rng.uniform(0, 1, n)
+    coil = np.repeat(np.arange(40), n // 40)
+    y = 0.2 * (temp - 35) + rng.normal(0, 0.4, 40)[coil] + rng.normal(0, 0.3, n)
+    y -= y.mean()
+    pair = Candidate.new("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
+    group = Candidate.new("coil", "group", coil.astype(str), ("coil",))
+    by_name = {"temp": Candidate.new("temp", "input", temp, ("temp",)), "coil": group}
+    rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=0.1)  # the product is not significant given the rest
+
+    def selection(*fits):
+        return Selection(y, list(by_name.values()), rules, {}, list(fits))
+
+    without_id = selection(best_fit(by_name["temp"], y, SETTINGS), best_fit(pair, y, SETTINGS))
+    without_id.drop_products_an_id_holds()
+    assert [fit.candidate.name for fit in without_id.chosen] == ["temp", "temp*other"]
+    with_id = selection(best_fit(by_name["temp"], y, SETTINGS), best_fit(pair, y, SETTINGS))
+    with_id.chosen.append(best_fit(group, y, SETTINGS))
+    with_id.refit()
+    with_id.drop_products_an_id_holds()
+    assert [fit.candidate.name for fit in with_id.chosen] == ["temp", "coil"]
