@@ -450,3 +450,20 @@ def test_a_product_that_adds_nothing_is_dropped_only_once_an_id_is_chosen():
     with_id.refit()
     with_id.drop_products_an_id_holds()
     assert [fit.candidate.name for fit in with_id.chosen] == ["temp", "coil"]
+
+
+def test_a_product_chosen_first_gives_way_to_its_column_with_the_causes_after_it_kept():
+    rng = np.random.default_rng(7)
+    n = 3000
+    temp, other, strokes = rng.uniform(20, 50, n), rng.uniform(0, 1, n), np.arange(n, dtype=float)
+    y = 6.0 / (1 + np.exp(-(temp - 35) / 2.0)) + 8.0 * strokes / n + rng.normal(0, 0.4, n)
+    y -= y.mean()
+    pair = Candidate.new("temp*other", "interaction", np.column_stack([temp, other]), ("temp", "other"))
+    by_name = {
+        "temp": Candidate.new("temp", "input", temp, ("temp",)),
+        "other": Candidate.new("other", "input", other, ("other",)),
+        "strokes": Candidate.new("strokes", "log", strokes, ("strokes",)),
+    }
+    selection = chosen(y, by_name, best_fit(pair, y, SETTINGS), best_fit(by_name["strokes"], y, SETTINGS))
+    assert selection.refine()
+    assert [fit.candidate.name for fit in selection.chosen] == ["temp", "strokes"]
