@@ -467,3 +467,17 @@ def test_a_product_chosen_first_gives_way_to_its_column_with_the_causes_after_it
     selection = chosen(y, by_name, best_fit(pair, y, SETTINGS), best_fit(by_name["strokes"], y, SETTINGS))
     assert selection.refine()
     assert [fit.candidate.name for fit in selection.chosen] == ["temp", "strokes"]
+
+
+def test_an_id_that_predicts_what_a_column_predicts_is_not_named_in_its_place_by_simplicity():
+    rng = np.random.default_rng(10)
+    n = 3000
+    temp = rng.uniform(20, 50, n)
+    shift = np.where(temp > 35, "late", "early")  # an id of two levels that follows the die temperature
+    y = 5.0 / (1 + np.exp(-(temp - 35) / 0.3)) + rng.normal(0, 0.3, n)
+    y -= y.mean()
+    column = best_fit(Candidate.new("temp", "input", temp, ("temp",)), y, SETTINGS, 0.5)
+    group = best_fit(Candidate.new("shift", "group", shift, ("shift",)), y, SETTINGS, 0.5)
+    assert naming._complexity(group) < naming._complexity(column)  # the id alone would be the simpler
+    rules = Lenient(SETTINGS, min_effect=0.5)
+    assert naming.prefer_simpler(column, [column, group], y, rules).candidate.name == "temp"  # ids come last
