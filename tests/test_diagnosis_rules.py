@@ -481,3 +481,19 @@ def test_an_id_that_predicts_what_a_column_predicts_is_not_named_in_its_place_by
     assert naming._complexity(group) < naming._complexity(column)  # the id alone would be the simpler
     rules = Lenient(SETTINGS, min_effect=0.5)
     assert naming.prefer_simpler(column, [column, group], y, rules).candidate.name == "temp"  # ids come last
+
+
+def test_elapsed_time_chosen_gives_way_on_refining_to_the_logged_counter_that_predicts_the_same():
+    rng = np.random.default_rng(11)
+    n = 3000
+    hours = np.arange(n) / 10.0
+    strokes = np.arange(n) * 1.0 + rng.normal(0, 0.5, n)  # the press ran steadily: strokes follow time
+    y = 2.0 * hours / hours.max() + rng.normal(0, 0.3, n)
+    y -= y.mean()
+    by_name = {
+        "hours": Candidate.new("hours", "time", hours, ("hours",)),
+        "strokes": Candidate.new("strokes", "log", strokes, ("strokes",)),
+    }
+    selection = chosen(y, by_name, best_fit(by_name["hours"], y, SETTINGS))
+    assert selection.refine()
+    assert [fit.candidate.name for fit in selection.chosen] == ["strokes"]
