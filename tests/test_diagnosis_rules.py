@@ -497,3 +497,22 @@ def test_elapsed_time_chosen_gives_way_on_refining_to_the_logged_counter_that_pr
     selection = chosen(y, by_name, best_fit(by_name["hours"], y, SETTINGS))
     assert selection.refine()
     assert [fit.candidate.name for fit in selection.chosen] == ["strokes"]
+
+
+def test_forward_selection_names_a_real_product_first():
+    rng = np.random.default_rng(12)
+    n = 3000
+    thickness, cushion = rng.uniform(0, 1, n), rng.uniform(0, 1, n)
+    y = 8.0 * (thickness - 0.5) * (cushion - 0.5) + rng.normal(0, 0.3, n)
+    y -= y.mean()
+    candidates = [
+        Candidate.new("thickness", "input", thickness, ("thickness",)),
+        Candidate.new("cushion", "input", cushion, ("cushion",)),
+        Candidate.new(
+            "thickness*cushion", "interaction", np.column_stack([thickness, cushion]), ("thickness", "cushion")
+        ),
+    ]
+    rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=0.3)
+    selection = Selection(y, candidates, rules, rules.fit_all(candidates, y))
+    selection.forward()
+    assert [fit.candidate.name for fit in selection.chosen] == ["thickness*cushion"]
