@@ -67,14 +67,17 @@ def run_mutmut(children: int, modules: list[str], survivors_only: bool = False) 
 
 def run_sample(children: int, modules: list[str], size: int, seed: int) -> None:
     """A seeded sample of ``size`` not-yet-run mutants of each module (of ``modules``, or of every one), run and
-    recorded with the module's mutants not yet run before it."""
+    recorded with the module's mutants not yet run before it (beside other modules' earlier samples)."""
     unrun: dict[str, list[str]] = {}
     for name, state in statuses().items():
         if state == "not checked" and (not modules or module_of(name) in modules):
             unrun.setdefault(module_of(name), []).append(name)
     draw = random.Random(seed)
     sample = {module: sorted(draw.sample(sorted(names), min(size, len(names)))) for module, names in unrun.items()}
-    SAMPLE.write_text(json.dumps({"seed": seed, "unrun": unrun, "sample": sample}, indent=1))
+    record = json.loads(SAMPLE.read_text()) if SAMPLE.exists() else {"unrun": {}, "sample": {}, "seeds": {}}
+    for key, value in (("unrun", unrun), ("sample", sample), ("seeds", dict.fromkeys(unrun, seed))):
+        record.setdefault(key, {}).update(value)
+    SAMPLE.write_text(json.dumps(record, indent=1))
     chosen = [name for names in sample.values() for name in names]
     if chosen:
         command = ["mutmut", "run", "--max-children", str(children), *chosen]
