@@ -122,7 +122,7 @@ def shared_rows(valued: dict[str, np.ndarray], inside: np.ndarray, test: np.ndar
         if not side_rows.any():
             continue
         broad = [m for m, finite in valued.items() if finite[side_rows].mean() >= 0.5]
-        common = side_rows & np.all([valued[m] for m in broad], axis=0) if broad else side_rows
+        common = side_rows & np.all([valued[m] for m in broad], axis=0)  # no broad model: all of an empty list
         for model, finite in valued.items():
             rows[model] |= common & finite
     return rows
