@@ -54,6 +54,9 @@ SEARCH_FOLDS = 5  # periods on which the searches' hyperparameters are compared
 def ar1_state(mfk) -> dict:
     """What a trained SMT MFK (continuous inputs, constant trends, squared-exponential kernel) predicts its mean
     from: its input and output scaling, and per level the training inputs, length scales and kriging weights."""
+    kind = (mfk.options["corr"], mfk.options["poly"], mfk.options["rho_regr"])
+    if kind != ("squar_exp", "constant", "constant"):
+        raise ValueError(f"co-kriging's predictor takes a squared-exponential kernel and constant trends, not {kind}")
     levels = [
         {
             "X": mfk.X_norma_all[level].tolist(),
