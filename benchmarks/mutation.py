@@ -33,7 +33,7 @@ import tomllib
 from collections import Counter
 from pathlib import Path
 
-from scipy.stats import beta
+from hybridtwin.answers.coverage import clopper_pearson
 
 ROOT = Path(__file__).resolve().parent.parent
 EQUIVALENT = ROOT / "benchmarks" / "mutation_equivalent.txt"
@@ -61,6 +61,11 @@ def run_mutmut(children: int, modules: list[str], survivors_only: bool = False) 
         selection = [name for name, state in statuses().items() if state in UNKILLED and module_of(name) in modules]
         if not selection:
             return
+    mutmut_run(children, selection)
+
+
+def mutmut_run(children: int, selection: list[str]) -> None:
+    """``mutmut run`` of the mutants selected (every one when none is), its children single-threaded."""
     command = ["mutmut", "run", "--max-children", str(children), *selection]
     subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
 
@@ -80,8 +85,7 @@ def run_sample(children: int, modules: list[str], size: int, seed: int) -> None:
     SAMPLE.write_text(json.dumps(record, indent=1))
     chosen = [name for names in sample.values() for name in names]
     if chosen:
-        command = ["mutmut", "run", "--max-children", str(children), *chosen]
-        subprocess.run(command, cwd=ROOT, env={**os.environ, **SINGLE_THREADED}, check=True, stdout=subprocess.DEVNULL)
+        mutmut_run(children, chosen)
 
 
 def statuses() -> dict[str, str]:
@@ -186,8 +190,7 @@ def sampled_rate(status, equivalent, unrun: list[str], sample: list[str]) -> tup
     def rate(p: float) -> float:
         return (known_detected + detected + rest_judged * p) / (known_judged + judged + rest_judged)
 
-    low = beta.ppf(0.025, detected, judged - detected + 1) if detected else 0.0
-    high = beta.ppf(0.975, detected + 1, judged - detected) if detected < judged else 1.0
+    low, high = clopper_pearson(detected, judged)
     return rate(detected / judged if judged else float("nan")), rate(low), rate(high), judged
 
 
