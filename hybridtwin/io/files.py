@@ -89,17 +89,17 @@ def write_csv(
 ) -> None:
     """``float_format=None`` writes each float with the digits that read back to the same value.
 
-    A table of numbers, booleans and plain text (no separator, quote or line break in it) is turned into
-    text column by column with Arrow and written by Arrow's CSV writer: the same text pandas writes (floats
-    with the fewest digits that read back to them, after rounding to ``float_format``'s significant
-    digits), ten times faster, which a 10-million-row production log needs. Any other table, and a decimal
-    comma, take pandas' writer with ``float_format`` as given.
+    A table of numbers, booleans and text is turned into text column by column with Arrow: the same text
+    pandas writes (floats with the fewest digits that read back to them, after rounding to ``float_format``'s
+    significant digits; text holding the separator, a quote or a line break quoted), ten times faster, which
+    a 10-million-row production log needs. Any other table (a lone carriage return in a text, dates,
+    categories...), and a decimal comma, take pandas' writer with ``float_format`` as given.
     """
     digits = _significant_digits(float_format)
     with atomic_path(path) as temporary:
-        columns = _as_arrow_text(frame, digits, sep) if decimal == "." else None
-        if columns is not None:
-            _write_text_columns(columns, temporary, sep)
+        as_text = _as_arrow_text(frame, digits, sep) if decimal == "." else None
+        if as_text is not None:
+            _write_text_columns(*as_text, temporary, sep)
             return
         if float_format is not None:
             frame = _floats_as_text(frame, float_format, decimal)
@@ -138,7 +138,8 @@ def rounded_to_significant(values: np.ndarray, digits: int) -> np.ndarray:
 
 
 def _as_arrow_text(frame: pd.DataFrame, digits: int | None, sep: str):
-    """Each column as Arrow text, as pandas writes it; None for a table only pandas' writer writes right."""
+    """Each column as Arrow text, as pandas writes it, and whether any text was quoted; None for a table only
+    pandas' writer writes right."""
     import pyarrow as pa
     import pyarrow.compute as pc
 
@@ -148,7 +149,7 @@ def _as_arrow_text(frame: pd.DataFrame, digits: int | None, sep: str):
         return None
     if any(_needs_quotes(name, sep) for name in names):
         return None
-    columns = {}
+    columns, quoted = {}, False
     for name in names:
         column = frame[name]
         kind = column.dtype
@@ -179,22 +180,24 @@ def _as_arrow_text(frame: pd.DataFrame, digits: int | None, sep: str):
                 text = pa.array(values, type=pa.string())
             if pc.any(pc.match_substring(text, "\r")).as_py():
                 return None  # whether a lone carriage return is quoted depends on the Python version
-            text = _quoted_where_needed(text, sep)
+            text, needed = _quoted_where_needed(text, sep)
+            quoted |= needed
         else:
             return None  # dates, categories, mixed objects...: pandas knows how it writes them
         columns[name] = text
-    return columns
+    return columns, quoted
 
 
 def _quoted_where_needed(text, sep: str):
-    """Text holding the separator, a quote or a line break in quotes, its quotes doubled: as pandas writes it."""
+    """Text holding the separator, a quote or a line break in quotes, its quotes doubled: as pandas writes it;
+    and whether any was."""
     import pyarrow.compute as pc
 
-    needs = pc.match_substring_regex(text, "[" + re.escape(sep) + '"\\n]')
+    needs = pc.match_substring_regex(text, _quoted_pattern(sep))
     if not pc.any(needs).as_py():
-        return text
+        return text, False
     quoted = pc.binary_join_element_wise('"', pc.replace_substring(text, '"', '""'), '"', "")
-    return pc.if_else(needs, quoted, text)
+    return pc.if_else(needs, quoted, text), True
 
 
 def _quoted_pattern(sep: str) -> str:
@@ -205,14 +208,14 @@ def _needs_quotes(text: str, sep: str) -> bool:
     return re.search(_quoted_pattern(sep), text) is not None
 
 
-def _write_text_columns(columns: dict, path, sep: str) -> None:
+def _write_text_columns(columns: dict, quoted: bool, path, sep: str) -> None:
     import pyarrow as pa
     import pyarrow.compute as pc
     import pyarrow.csv as arrow_csv
 
     with open(path, "wb") as handle:
         handle.write((sep.join(columns) + "\n").encode())  # Arrow would quote the names
-        if not any(pc.any(pc.match_substring(text, '"')).as_py() for text in columns.values()):
+        if not quoted:
             options = arrow_csv.WriteOptions(include_header=False, delimiter=sep, quoting_style="none")
             arrow_csv.write_csv(pa.table(columns), handle, options)
             return
