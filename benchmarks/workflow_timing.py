@@ -32,6 +32,13 @@ def snakemake(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(command, capture_output=True, text=True, check=True)
 
 
+def run_config(results: Path) -> list[str]:
+    """The demo's config pointed at ``results``: its outputs there, and the demo plant's files it makes there."""
+    demo = results / "demo"
+    data = ", ".join(f"{role}: {demo / role}.csv" for role in ("doe", "production", "matched"))
+    return ["--config", f"results_dir={results}", f"data={{{data}}}"]
+
+
 def rule_times(results: Path) -> pd.DataFrame:
     """One row per job: its benchmark file's name (rule and wildcards), seconds and peak memory."""
     rows = []
@@ -43,7 +50,7 @@ def rule_times(results: Path) -> pd.DataFrame:
 
 def dag_edges(results: Path) -> tuple[dict[str, str], list[tuple[str, str]]]:
     """The run's jobs (named as their benchmark files are) and their dependencies, from ``snakemake --dag``."""
-    dot = snakemake("--dag", "--forceall", "--config", f"results_dir={results}").stdout
+    dot = snakemake("--dag", "--forceall", *run_config(results)).stdout
     names = {}
     for node, label in re.findall(r'^\s*(\d+)\[label = "([^"]+)"', dot, re.M):
         rule, *wildcards = label.split("\\n")
@@ -102,7 +109,7 @@ def main() -> None:
             if results.exists():
                 sys.exit(f"{results} exists: --run starts from an empty results folder")
             start = time.perf_counter()
-            snakemake("--cores", str(CORES), "--config", f"results_dir={results}")
+            snakemake("--cores", str(CORES), *run_config(results))
             wall = time.perf_counter() - start
         text = report(results, wall)
     print(text)
