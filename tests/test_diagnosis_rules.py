@@ -8,7 +8,7 @@ from hybridtwin import diagnosis
 from hybridtwin.diagnosis import Candidate, Settings, best_fit, forms, ids, naming
 from hybridtwin.diagnosis import fits as fitting
 from hybridtwin.diagnosis.profiles import Identity
-from hybridtwin.diagnosis.selection import Selection
+from hybridtwin.diagnosis.selection import Selection, smooth_first
 
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
@@ -467,6 +467,23 @@ def test_a_product_chosen_first_gives_way_to_its_column_with_the_causes_after_it
     selection = chosen(y, by_name, best_fit(pair, y, SETTINGS), best_fit(by_name["strokes"], y, SETTINGS))
     assert selection.refine()
     assert [fit.candidate.name for fit in selection.chosen] == ["temp", "strokes"]
+    assert selection.no_interaction == {"temp*other"}
+
+
+def test_a_product_that_gave_way_to_its_column_is_no_candidate_when_the_causes_are_chosen_again():
+    # a wear along the strokes and a campaign setting that tracks it: a product of the setting once out-scored the
+    # wear and gave way to the setting alone; chosen again, the setting competes with the wear as a column
+    rng = np.random.default_rng(8)
+    n = 600
+    strokes, r, pin = np.arange(n, dtype=float), rng.uniform(0, 1, n), np.repeat(np.arange(10.0), n // 10)
+    y = 4.0 * strokes / n + 3.0 * (r - 0.5) * (pin - 4.5) / 9 + rng.normal(0, 0.2, n)
+    pair = Candidate.new("r*pin", "interaction", np.column_stack([r, pin]), ("r", "pin"))
+    columns = [Candidate.new(name, "input", v, (name,)) for name, v in (("strokes", strokes), ("r", r), ("pin", pin))]
+    selection = Selection(y - y.mean(), [*columns, pair], Lenient(SETTINGS, min_effect=0.1), {})
+    selection.refit()
+    assert {f.candidate.name for f in selection.pool()} == {"strokes", "r", "pin", "r*pin"}
+    selection.no_interaction.add("r*pin")
+    assert {f.candidate.name for f in selection.pool()} == {"strokes", "r", "pin"}
 
 
 def test_an_id_that_predicts_what_a_column_predicts_is_not_named_in_its_place_by_simplicity():
@@ -516,3 +533,25 @@ def test_forward_selection_names_a_real_product_first():
     selection = Selection(y, candidates, rules, rules.fit_all(candidates, y))
     selection.forward()
     assert [fit.candidate.name for fit in selection.chosen] == ["thickness*cushion"]
+
+
+def _scored(name: str, kind: str, share: float) -> fitting.Fit:
+    """A fit that explains ``share`` of the residual's variance held out."""
+    values = np.linspace(0, 1, 20)
+    candidate = Candidate.new(name, kind, values, tuple(name.split("*")))
+    return fitting.Fit(candidate, forms.fit_form("linear", values, values), values, 1.0 - share, 1.0, -1.0, 0.0, 1, 1)
+
+
+def test_a_column_that_explains_most_of_what_an_id_does_goes_before_it():
+    # a die temperature's saturation and a wear the coils' offsets follow: the surface of the inputs accounts
+    # for little of the offsets (a quadratic cannot hold a saturation), but the column explains most of it
+    coil = _scored("coil", "group", 0.8)
+    assert smooth_first(_scored("die_temp", "input", 0.6), coil, accounted=0.0)
+    assert smooth_first(_scored("strokes", "log", 0.5), coil, accounted=0.0)
+    # offsets nothing logged causes: the best column explains a small part of them, the id goes first
+    assert not smooth_first(_scored("air_temp", "input", 0.3), coil, accounted=0.0)
+    assert not smooth_first(_scored("air_temp", "input", 0.45), coil, accounted=0.2)
+    # ... unless the smooth candidates account for enough of its level differences held out by level
+    assert smooth_first(_scored("air_temp", "input", 0.3), coil, accounted=0.25)
+    # a product may take up a few coils' offsets by chance: its share does not put it first
+    assert not smooth_first(_scored("rm*cushion", "interaction", 0.75), coil, accounted=0.1)

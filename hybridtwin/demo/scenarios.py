@@ -17,7 +17,7 @@ import pandas as pd
 import xgboost as xgb
 
 from hybridtwin import diagnosis
-from hybridtwin.demo import harness
+from hybridtwin.demo import harness, structures
 from hybridtwin.demo import plant as demo
 from hybridtwin.demo.families import Expected, PlantCase, draw_plant
 from hybridtwin.io import config as configuration
@@ -313,11 +313,13 @@ def run_scenario(
 ) -> Outcome:
     """Generate a plant with a random hidden effect of ``kind``, diagnose it, extend, and score out of support.
 
-    ``generator``: "demo" (kinds :data:`KINDS`, ``n_production`` parts) or "families" (:data:`FAMILIES`,
-    their own plant sizes).
+    ``generator``: "demo" (kinds :data:`KINDS`, ``n_production`` parts), "families" (:data:`FAMILIES`,
+    their own plant sizes) or "structures" (:data:`hybridtwin.demo.structures.KINDS`, drawn structures).
     """
     if generator == "families":
         case = draw_plant(kind, seed)
+    elif generator == "structures":
+        case = structures.draw_structure_plant(kind, seed)
     elif generator == "demo":
         case = demo_case(kind, seed, n_production)
     else:

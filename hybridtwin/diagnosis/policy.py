@@ -25,3 +25,9 @@ REFINE_PASSES = 3
 # differences held out by level (a wear or a lubricant that changes per coil, with offsets of the coil's own
 # beside it); offsets no smooth quantity predicts are accounted for near 0
 ID_ACCOUNTED_SMOOTH_FIRST = 0.25
+# ... and where the best smooth column (not a product, which may stand for two coils' worth of offsets by chance)
+# explains this share of what the id explains: a die temperature's saturation or a wear that the coil's offsets
+# follow, and that a quadratic surface of the inputs cannot hold. Offsets nothing logged causes leave the best
+# column a small share of the id's (at most 0.38 on the families' coil plants; 0.64 and more where a column is the
+# cause)
+SMOOTH_SHARE_OF_ID = 0.6

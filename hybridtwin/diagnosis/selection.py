@@ -30,7 +30,7 @@ from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
 from hybridtwin.diagnosis.ids import id_stands
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
-from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE
+from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE, SMOOTH_SHARE_OF_ID
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.diagnosis.table import Found, causes_table
 from hybridtwin.metrics import block_means
@@ -73,6 +73,8 @@ class Selection:
     remaining: np.ndarray | None = None
     conditional: dict[str, Fit] = field(default_factory=dict)
     proxies: dict[str, tuple[tuple[str, ...], float]] = field(default_factory=dict)
+    # products that gave way to one of their columns with the other causes in: no interaction, no candidate
+    no_interaction: set[str] = field(default_factory=set)
 
     def __post_init__(self):
         self.remaining = self.y if self.remaining is None else self.remaining
@@ -95,18 +97,25 @@ class Selection:
         """The next cause given those chosen, or None when no candidate is significant.
 
         An id that predicts best is named only if its offsets stand once the smooth candidates are out."""
-        chosen = self.names
-        # a pair that is no interaction is not a candidate
-        pool = [f for n, f in self.conditional.items() if n not in chosen and f.form.name != forms.Additive.name]
+        pool = self.pool()
         smooth = [f for f in pool if f.candidate.kind != "group"]
         best = self._next_smooth(smooth) if smooth else None
         # an id is tried only where it predicts better than every significant smooth cause
         bar = min((f.score for f in smooth if self.rules.significant(f)), default=np.inf)
         named_id, accounted = self._next_id([f for f in pool if f.candidate.kind == "group" and f.score < bar])
         # an id whose offsets are mostly what the smooth causes do is named after them (a lubricant per coil)
-        if named_id is None or (best is not None and accounted >= ID_ACCOUNTED_SMOOTH_FIRST):
+        if named_id is None or (best is not None and smooth_first(best, named_id, accounted)):
             return best
         return named_id
+
+    def pool(self) -> list[Fit]:
+        """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
+        (their product does not beat their two columns, or gave way to one of them with the other causes in)."""
+        return [
+            f
+            for n, f in self.conditional.items()
+            if n not in self.names and n not in self.no_interaction and f.form.name != forms.Additive.name
+        ]
 
     def _next_smooth(self, pool: list[Fit]) -> Fit | None:
         """The best significant column, product or time given those chosen (the simplest that predicts the same).
@@ -179,7 +188,8 @@ class Selection:
                 self.refit()
 
     def choose_again_after_the_first(self) -> None:
-        """The causes after the first were chosen given a first cause that has changed: choose them again."""
+        """The causes after the first were chosen given a first cause that has changed: choose them again (a
+        product that gave way to its column is no longer a candidate: the column competes with the others)."""
         del self.chosen[1:]
         self.proxies = {}
         self.refit()
@@ -225,8 +235,18 @@ class Selection:
         scored = [(share, single) for share, single in scored if share >= current - SHARE_TOLERANCE]
         if not scored:
             return False
+        self.no_interaction.add(self.chosen[j].candidate.name)
         self.chosen[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
         return True
+
+
+def smooth_first(best: Fit, named_id: Fit, accounted: float) -> bool:
+    """Whether a significant smooth cause goes before an id that stands: the smooth candidates account for
+    enough of the id's level differences, or the best is a column that explains most of what the id does."""
+    if accounted >= ID_ACCOUNTED_SMOOTH_FIRST:
+        return True
+    column = best.candidate.kind != "interaction"
+    return column and best.explained_share >= SMOOTH_SHARE_OF_ID * named_id.explained_share
 
 
 def joint_share(fits: list[Fit], y, settings: Settings) -> float:
