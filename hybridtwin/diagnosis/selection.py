@@ -111,11 +111,8 @@ class Selection:
     def pool(self) -> list[Fit]:
         """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
         (their product does not beat their two columns, or gave way to one of them with the other causes in)."""
-        return [
-            f
-            for n, f in self.conditional.items()
-            if n not in self.names and n not in self.no_interaction and f.form.name != forms.Additive.name
-        ]
+        left_out = self.names | self.no_interaction
+        return [f for n, f in self.conditional.items() if n not in left_out and f.form.name != forms.Additive.name]
 
     def _next_smooth(self, pool: list[Fit]) -> Fit | None:
         """The best significant column, product or time given those chosen (the simplest that predicts the same).
