@@ -104,7 +104,7 @@ def main() -> None:
                 change(folder)
             rows.append((name, planned(folder, folder / "config.yaml")))
     print("| change | reruns | does not rerun (among the steps on the DoE) |\n|---|---|---|")
-    doe_side = {"validate_inputs (doe)", "standardize", "surrogate_cv", "surrogate_fit", "demo_data"}
+    doe_side = {"validate_inputs (doe)", "surrogate_cv", "surrogate_fit", "demo_data"}
     for name, rules in rows:
         kept = sorted(doe_side - set(rules))
         print(f"| {name} | {len(rules)}: {', '.join(rules)} | {', '.join(kept) or '–'} |")

@@ -23,12 +23,16 @@ import gen_outputs  # noqa: E402
 @pytest.fixture(scope="module")
 def planned_outputs(tmp_path_factory) -> list[tuple[str, str]]:
     """(rule, output under the results folder) of every job of the demo workflow, with a what-if and a monitor
-    batch, planned from scratch (a dry run)."""
+    batch and two tuning workers (one is rule tune_residual itself), planned from scratch (a dry run)."""
     run = tmp_path_factory.mktemp("plan")
     for name in ("settings.csv", "batch.csv"):
         (run / name).write_text("")
     overlay = run / "overlay.yaml"
-    overlay.write_text(yaml.safe_dump({"results_dir": "results", "whatif": "settings.csv", "monitor": "batch.csv"}))
+    overlay.write_text(
+        yaml.safe_dump(
+            {"results_dir": "results", "whatif": "settings.csv", "monitor": "batch.csv", "tuning": {"workers": 2}}
+        )
+    )
     command = [
         sys.executable,
         "-m",

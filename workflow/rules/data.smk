@@ -44,32 +44,14 @@ rule validate_inputs:
         "../../scripts/validate_inputs.py"
 
 
-rule standardize:
-    input:
-        doe=CHECKED["doe"],
-    output:
-        model=f"{MODELS}/doe_standardization.json",
-        table=f"{TABLES}/doe_standardization.csv",
-    log:
-        log_of("standardize"),
-    benchmark:
-        benchmark_of("standardize")
-    priority: 2  # on the way to the tuning
-    conda:
-        "../envs/hybridtwin.yaml"
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-    script:
-        "../../scripts/standardize.py"
-
-
+# the DoE's standardization is made here: a step of its own cost a process start (1.3 s) for milliseconds of work
 rule support_gate:
     input:
         doe=CHECKED["doe"],
         production=CHECKED["production"],
-        standardization=rules.standardize.output.model,
     output:
+        standardization=f"{MODELS}/doe_standardization.json",
+        standardization_table=f"{TABLES}/doe_standardization.csv",
         model=model_file("gate"),
         production=f"{RESULTS}/support/production_support.csv",
         figure=report(

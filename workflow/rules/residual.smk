@@ -46,7 +46,11 @@ rule tune_residual:
     input:
         production=CHECKED["production"],
         residuals=rules.residuals.output.residuals,
-        workers=expand(f"{RESULTS}/tuning/worker_{{worker}}.json", worker=range(config["tuning"]["workers"])),
+        # one worker is this rule itself: a job of its own would cost a process start on the critical path
+        workers=expand(
+            f"{RESULTS}/tuning/worker_{{worker}}.json",
+            worker=range(config["tuning"]["workers"] if config["tuning"]["workers"] > 1 else 0),
+        ),
     output:
         best=f"{RESULTS}/tuning/best_params.json",
         trials=f"{RESULTS}/tuning/trials.csv",
@@ -55,10 +59,11 @@ rule tune_residual:
         log_of("tune_residual"),
     benchmark:
         benchmark_of("tune_residual")
-    priority: 1
+    priority: 2  # with one worker it runs the study: it heads the critical path
     conda:
         "../envs/hybridtwin.yaml"
-    # one core, so that it never waits for both to be free (a trial a worker left undone runs here, alike)
+    # one core, so that it never waits for both to be free (the study with one worker, or a trial the workers
+    # left undone, runs here alike)
     threads: 1
     params:
         **TUNING_PARAMS,
