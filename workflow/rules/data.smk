@@ -76,27 +76,6 @@ rule support_gate:
         "../../scripts/support_gate.py"
 
 
-rule matched_support:
-    # apart from the gate, so a new matched case reruns the matched check, not the models
-    input:
-        matched=CHECKED["matched"],
-        gate=rules.support_gate.output.model,
-    output:
-        support=f"{RESULTS}/support/matched_support.csv",
-    log:
-        log_of("matched_support"),
-    benchmark:
-        benchmark_of("matched_support")
-    conda:
-        "../envs/hybridtwin.yaml"
-    params:
-        code=PACKAGE_CODE,
-        inputs=INPUTS,
-        paths=config["data"],
-    script:
-        "../../scripts/matched_support.py"
-
-
 rule table1:
     input:
         doe=CHECKED["doe"],
