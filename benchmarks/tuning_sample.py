@@ -6,7 +6,7 @@ family, 70,000 parts, committed seeds) the in-support parts of the first 70% of 
 paper's residual model, and the in-support parts of the last 30% score it: the hybrid's RMSE against the
 noise-free truth, with hyperparameters tuned
 
-- on every training part (up to today's default cap), with the run's sampler seed and with another one (the
+- on every training part (no cap), with the run's seed and with another one (sampler, folds and XGBoost: the
   spread that the study's own randomness gives), and
 - on seeded samples of ``--sizes`` parts.
 

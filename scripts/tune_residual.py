@@ -1,8 +1,8 @@
 """Step 5a: Optuna (seeded TPE) search of the XGBoost residual model's hyperparameters by K-fold CV RMSE.
 
-Rule tune_worker runs trials of the shared study (``tuning.workers`` of them at once, each its own
-job); rule tune_residual reads the finished study (running any trial a worker left undone) and
-writes the best parameters, the trials and Table 4.
+With ``tuning.workers`` above 1, rule tune_worker runs trials of the shared study (that many at once, each
+its own job) and rule tune_residual reads the finished study (running any trial a worker left undone); with
+one worker, tune_residual runs the study itself. It writes the best parameters, the trials and Table 4.
 """
 
 import logging

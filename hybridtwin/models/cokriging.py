@@ -75,7 +75,9 @@ def _mfk_class():
         _source = _columns = _work = None
 
         def __call__(self, d, grad_ind=None, hess_ind=None, derivative_params=None):
-            if grad_ind is not None or hess_ind is not None or derivative_params is not None:
+            # numpy adds a row of a column-major matrix in another order: SMT's own sum there (it passes C order)
+            derivative = grad_ind is not None or hess_ind is not None or derivative_params is not None
+            if derivative or not d.flags.c_contiguous or len(self.theta) != d.shape[1]:
                 return super().__call__(d, grad_ind, hess_ind, derivative_params)
             if d is not self._source:
                 self._source, self._columns = d, np.asfortranarray(d)
