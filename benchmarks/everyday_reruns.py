@@ -95,6 +95,8 @@ def main() -> None:
                 ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"),
             )
             config = base if callable(change) else config_with(base, *change)
+            # the results where the finished run left them (a config file's own name would name another folder)
+            config = {**config, "results_dir": "results"}
             (folder / "config.yaml").write_text(yaml.safe_dump(config))
             if every is None:
                 every = planned(folder, folder / "config.yaml")

@@ -13,10 +13,11 @@ from hybridtwin.report import plots
 def main(snakemake):
     p, spec = snakemake.params, spec_of(snakemake)
     matched = read_checked(snakemake.input.matched)
-    support = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate)).support_table(matched[list(spec.inputs)])
+    inputs = matched[list(spec.inputs)]
+    support = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate)).support_table(inputs)
     data.warn_matched_outside(support["in_support"].to_numpy(), p.paths)
     files.write_csv(support, snakemake.output.support)
-    X = matched[list(spec.inputs)].to_numpy(float)
+    X = inputs.to_numpy(float)
     summary, cases = tables.matched_cases_table(
         matched,
         p.matched_simulated,

@@ -1,25 +1,18 @@
 """Steps 1 and 2: the inputs standardized with DoE statistics only; the kNN support gate, its distance and
 in_support for every production row."""
 
-import pandas as pd
-
 from hybridtwin import pipeline
 from hybridtwin.io import data, files
 from hybridtwin.io.runner import run, spec_of
-from hybridtwin.paper.gate import DoEStandardizer
 from hybridtwin.report import plots
 
 
 def main(snakemake):
     p, spec = snakemake.params, spec_of(snakemake)
     doe, production = (files.read_checked(snakemake.input[name], spec.inputs) for name in ("doe", "production"))
-    standardizer = DoEStandardizer().fit(doe[list(spec.inputs)])
-    files.write_json(standardizer.to_dict(), snakemake.output.standardization)
-    files.write_csv(
-        pd.DataFrame({"column": spec.inputs, "doe_mean": standardizer.mean_, "doe_std": standardizer.scale_}),
-        snakemake.output.standardization_table,
-    )
-    found = pipeline.support(doe, production, spec, p.k, p.percentile, standardizer)
+    found = pipeline.support(doe, production, spec, p.k, p.percentile)
+    files.write_json(found.gate.standardizer_.to_dict(), snakemake.output.standardization)
+    files.write_csv(found.gate.standardizer_.table(), snakemake.output.standardization_table)
     data.check_support(
         found.table["in_support"].to_numpy(), doe, production, spec.inputs, p.paths, found.gate.threshold_
     )

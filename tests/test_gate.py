@@ -29,6 +29,14 @@ def test_standardizer_statistics_by_hand():
     np.testing.assert_allclose(z.std(axis=0, ddof=1), 1.0)
 
 
+def test_standardization_table_names_each_input_with_its_doe_statistics():
+    doe = pd.DataFrame({"thickness_mm": [0.6, 0.7, 0.8], "die_temp_c": [20.0, 40.0, 30.0]})
+    table = DoEStandardizer().fit(doe).table()
+    assert table["column"].tolist() == ["thickness_mm", "die_temp_c"]
+    np.testing.assert_allclose(table["doe_mean"], [0.7, 30.0])
+    np.testing.assert_allclose(table["doe_std"], [0.1, 10.0])
+
+
 def test_standardizer_applies_doe_statistics_to_production():
     std = DoEStandardizer().fit(DOE)
     production = np.array([[10.0, 4.0], [-2.0, 4.0 + 2 * math.sqrt(13)], [2.0, 4.0]])

@@ -110,6 +110,8 @@ def test_cokriging_searches_with_smts_kernel_values_and_finds_smts_hyperparamete
         kernel.theta, reference = theta, PowExp(theta)
         np.testing.assert_array_equal(kernel(distances), reference(distances))
     np.testing.assert_array_equal(kernel(distances[:500]), PowExp(kernel.theta)(distances[:500]))  # a new matrix
+    column_major = np.asfortranarray(distances)  # numpy adds its rows in another order: SMT's own sum there
+    np.testing.assert_array_equal(kernel(column_major), PowExp(kernel.theta)(column_major))
     model = CoKriging(n_high=80, n_start=1, n_searches=1)
     model.fit(case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"])
     # SMT's own MFK and kernel searching the same draw from the same starts end at the same point

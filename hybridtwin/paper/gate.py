@@ -69,6 +69,11 @@ class DoEStandardizer(TransformerMixin, BaseEstimator):
     def to_dict(self) -> dict:
         return {"inputs": input_names(self), "mean": self.mean_.tolist(), "std": self.scale_.tolist()}
 
+    def table(self) -> pd.DataFrame:
+        """tables/doe_standardization.csv: each input's DoE mean and standard deviation."""
+        check_is_fitted(self, "mean_")
+        return pd.DataFrame({"column": input_names(self), "doe_mean": self.mean_, "doe_std": self.scale_})
+
     @classmethod
     def from_dict(cls, data: dict) -> "DoEStandardizer":
         standardizer = cls()
