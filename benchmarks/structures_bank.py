@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 import time
 import warnings
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +69,7 @@ def baseline_names(expected: Expected, top: str) -> bool:
     if "*" in expected.cause:
         pair = set(expected.cause.split("*"))
         return columns == pair or (len(columns) == 1 and columns <= pair)
-    return len(columns) == 1 and top in (expected.cause, expected.alias)
+    return len(columns) == 1 and top in {expected.cause, expected.alias, expected.twin} - {None}
 
 
 def names_any(expected: Expected, top: str) -> bool:
@@ -79,7 +79,7 @@ def names_any(expected: Expected, top: str) -> bool:
 
 def _alone(expected: Expected) -> Expected:
     """The cause without its further causes: judged as the first."""
-    return Expected(expected.cause, expected.forms, expected.monotone, (), expected.alias)
+    return replace(expected, also=())
 
 
 def plant_row(kind: str, draw: int, jobs: int, n_production: int | None) -> dict:
@@ -105,6 +105,7 @@ def plant_row(kind: str, draw: int, jobs: int, n_production: int | None) -> dict
         surrogate_std=case.surrogate_std,
         expected=outcome.expected.cause,
         expected_also=";".join(str(e.cause) for e in outcome.expected.also),
+        twins=";".join(e.twin for e in (outcome.expected, *outcome.expected.also) if e.twin),
         answer_ok=outcome.answer_ok,
         correct=outcome.correct,
         chosen="; ".join(f"{c.cause}/{c.form}" for c in outcome.chosen),

@@ -32,6 +32,14 @@ def test_an_alias_counts_only_where_the_data_cannot_tell_the_two_apart():
     assert not _outcome(NEAR_COPY, Chosen("die_temp", "sigmoid", False)).answer_ok
 
 
+def test_a_twin_on_the_time_line_may_be_named_in_the_cause_s_place_reported_or_not():
+    season = Expected("time", ("linear", "quadratic", "sigmoid"), monotone=True, twin="strokes")
+    assert _outcome(season, Chosen("strokes", "quadratic", False)).answer_ok
+    assert _outcome(season, Chosen("strokes", "quadratic", False, aliases=("time",))).answer_ok
+    assert not _outcome(season, Chosen("coil", "group", False)).answer_ok
+    assert not _outcome(Expected("time", ("quadratic",)), Chosen("strokes", "quadratic", False)).answer_ok
+
+
 def test_two_causes_in_either_order_and_both_needed():
     heat, wear = Chosen("die_temp", "sigmoid", False), Chosen("strokes", "quadratic", True)  # a monotone trend
     assert _outcome(TWO, heat, wear).answer_ok

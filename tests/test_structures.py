@@ -137,3 +137,17 @@ def test_a_step_in_time_is_one_in_strokes_and_is_judged_so():
     assert case.expected.cause in (case.names["time"], None)
     if case.expected.cause:
         assert case.expected.alias == case.names["strokes"] and "step" in case.expected.forms
+
+
+def test_a_twin_column_is_accepted_only_where_it_reproduces_the_cause_within_the_detection_limit():
+    rng = np.random.default_rng(0)
+    hours, inside = np.sort(rng.uniform(0, 500, 2000)), np.ones(2000, bool)
+    strokes = hours + rng.uniform(0, 40, 2000).cumsum() / 10  # idle spells: a time line of its own
+    assert structures.twin_misfit((hours - 200) ** 2, hours, inside) < 1e-9  # a parabola is one in itself
+    season = np.sin(hours / 500)
+    misfit = structures.twin_misfit(season, strokes, inside)
+    assert 0 < misfit < 0.2  # a slow season is nearly a parabola in strokes
+    assert structures.twin_misfit(rng.normal(size=2000), strokes, inside) > 0.9  # noise is none
+    for kind, seed in (("seasonal", 40019), ("wear", 40007)):
+        case = _case(kind, seed)
+        assert case.expected.twin in (None, case.names["strokes"] if kind == "seasonal" else case.names["time"])

@@ -61,7 +61,10 @@ class Expected:
     """What the diagnosis must report: a cause (or None: nothing significant) and its form family.
 
     ``also``: further causes that must be among the chosen ones (two-cause plants);
-    ``alias``: a column the cause must be reported as not told apart from.
+    ``alias``: a column the cause must be reported as not told apart from;
+    ``twin``: a column on the same time line that reproduces the cause within the detection limit (a season over a
+    few weeks and a parabola in strokes): it may be named in the cause's place, reported beside it or not (the
+    data may tell the two apart by the idle spells, or may not).
     """
 
     cause: str | None
@@ -69,6 +72,7 @@ class Expected:
     monotone: bool = False  # any form whose fitted term is monotone over the data (a trend)
     also: tuple["Expected", ...] = ()
     alias: str | None = None
+    twin: str | None = None
 
 
 @dataclass

@@ -125,8 +125,10 @@ class Chosen:
         )
 
     def names(self, expected: Expected) -> bool:
-        """The expected cause, or the column the data cannot tell from it (``expected.alias``), with its form."""
-        return self.form_fits(expected) and (named(expected, self.cause) or self.cause == expected.alias)
+        """The expected cause, or the column the data cannot tell from it (``expected.alias``, ``expected.twin``),
+        with its form."""
+        stand_ins = {expected.alias, expected.twin} - {None}
+        return self.form_fits(expected) and (named(expected, self.cause) or self.cause in stand_ins)
 
 
 @dataclass
@@ -257,7 +259,7 @@ class Outcome:
             return False
         return (
             named(self.expected, self.shap_top)
-            or self.shap_top == self.expected.alias
+            or self.shap_top in {self.expected.alias, self.expected.twin} - {None}
             or ("*" in self.expected.cause and self.shap_top in self.expected.cause.split("*"))
         )
 

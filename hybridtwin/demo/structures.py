@@ -278,8 +278,9 @@ class _Plant:
         return self.frame[column].to_numpy(float)
 
 
-# one hidden cause: its shape (scaled to its size when drawn), its expected report, its words, its columns
-_Cause = namedtuple("_Cause", "shape expected text columns")
+# one hidden cause: its shape (scaled to its size when drawn), its expected report, its words, its columns, and
+# the column on the same time line it may not be told from (name, values; wear in strokes, a season in hours)
+_Cause = namedtuple("_Cause", "shape expected text columns twin", defaults=(None,))
 
 
 def _unit(values: np.ndarray, inside: np.ndarray) -> np.ndarray:
@@ -332,15 +333,38 @@ def _time_line_cause(plant: _Plant, kind: str) -> _Cause:
     never_idle = np.corrcoef(hours[plant.inside], strokes[plant.inside])[0, 1] > families.NEVER_IDLE_CORRELATION
     if kind == "wear":
         expected = Expected(names["strokes"], ("linear",), monotone=True, alias=names["time"] if never_idle else None)
-        return _Cause(strokes, expected, f"tool wear linear in {names['strokes']}", ("strokes",))
+        return _Cause(
+            strokes, expected, f"tool wear linear in {names['strokes']}", ("strokes",), (names["time"], hours)
+        )
     if kind == "seasonal":
         forms, alias = ("linear", "quadratic", "sigmoid"), names["strokes"] if never_idle else None
         shape, text = plant.hidden["seasonal"], "a seasonal trend in calendar time that no logged column holds"
+        twin = (names["strokes"], strokes)
     else:
         at = float(np.quantile(hours[plant.inside], plant.rng.uniform(0.3, 0.7)))
-        forms, alias = ("step", "sigmoid"), names["strokes"]
+        forms, alias, twin = ("step", "sigmoid"), names["strokes"], None
         shape, text = (hours >= at).astype(float), f"an unlogged shift of the offset after {at:.1f} h"
-    return _Cause(shape, Expected(names["time"], forms, monotone=kind == "seasonal", alias=alias), text, ("time",))
+    expected = Expected(names["time"], forms, monotone=kind == "seasonal", alias=alias)
+    return _Cause(shape, expected, text, ("time",), twin)
+
+
+def twin_misfit(shape: np.ndarray, twin: np.ndarray, inside: np.ndarray) -> float:
+    """The std of what a parabola in the twin column leaves of a cause's shape in support, per unit of the shape's
+    std: times the cause's size (in the surrogate's uncertainty), the most the two columns' best fits differ by."""
+    x, y = _unit(twin, inside)[inside], _unit(shape, inside)[inside]
+    basis = np.column_stack([np.ones_like(x), x, x**2])
+    return float(np.std(y - basis @ np.linalg.lstsq(basis, y, rcond=None)[0]))
+
+
+def _with_twin(cause: _Cause, ratio: float, inside: np.ndarray) -> Expected:
+    """A cause on the time line whose twin column reproduces it within the detection limit (the diagnosis'
+    tolerance for two columns that predict the same) may be named by either (``Expected.twin``): a slow season
+    over a few weeks is a parabola in strokes too, idle spells or not."""
+    if cause.twin is None or cause.expected.alias is not None:
+        return cause.expected
+    name, values = cause.twin
+    indistinct = twin_misfit(cause.shape, values, inside) * ratio < DETECTION_LIMIT
+    return replace(cause.expected, twin=name) if indistinct else cause.expected
 
 
 def _cause(kind: str, plant: _Plant, exclude: set[str]) -> _Cause:
@@ -380,9 +404,9 @@ def _sizes(count: int, rng: np.random.Generator) -> np.ndarray:
     return total * np.sqrt(rng.dirichlet(np.full(count, 2.0))) if count > 1 else np.array([total])
 
 
-def _expected(causes: list[_Cause], ratios: np.ndarray) -> Expected:
+def _expected(causes: list[_Cause], ratios: np.ndarray, inside: np.ndarray) -> Expected:
     """The causes above the detection limit, the largest first; ``Expected(None)`` where there is none."""
-    above = [causes[i].expected for i in np.argsort(-ratios) if ratios[i] >= DETECTION_LIMIT]
+    above = [_with_twin(causes[i], ratios[i], inside) for i in np.argsort(-ratios) if ratios[i] >= DETECTION_LIMIT]
     return replace(above[0], also=tuple(above[1:])) if above else Expected(None)
 
 
@@ -448,7 +472,7 @@ def draw_structure_plant(kind: str, seed: int, n_production: int | None = None) 
     offset, noise = float(rng.choice([-1.0, 1.0]) * rng.uniform(3, 15)), float(rng.uniform(0.8, 1.6))
     truth = simulator(production) + offset + effect
     measured = np.round(truth + rng.normal(0, noise, len(truth)), 3)
-    expected = _expected(causes, ratios)
+    expected = _expected(causes, ratios, inside)
     size = float(effect[inside].std() / latent)
     return StructureCase(
         kind,
