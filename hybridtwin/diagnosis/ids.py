@@ -58,7 +58,7 @@ def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time")) -> lis
     """The smooth candidates that may account for an id's offsets: significant on their own but for the margin
     (too small to be named alone), best first; of ``kinds`` (the input surface holds the inputs and their
     products)."""
-    but_for_margin = [fit for fit in fits if is_significant(fit, rules.n_tests, rules.settings, min_effect=0.0)]
+    but_for_margin = [fit for fit in fits if is_significant(fit, 1, rules.settings, min_effect=0.0)]
     usable = [fit for fit in but_for_margin if fit.candidate.kind in kinds]
     return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
 
@@ -111,7 +111,7 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
     (held out by level); with the names of what accounts for them and the share of its level differences."""
     inputs = [c for c in candidates if c.kind == "input"]
-    smooth = smooth_accounts(list(conditional.values()), rules, ("log", "time") if inputs else ("log", "time", "input"))
+    smooth = smooth_accounts(list(conditional.values()), rules, ("log", "time", "input"))
     left = unaccounted(fit.candidate, y, inputs, smooth, rules)
     before = between_level_ss(fit.candidate.values, y)
     share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
