@@ -5,14 +5,14 @@ own error is constant within a coil too, and coils run in time order, so a coil'
 quantity (wear, ambient temperature, the season). With one parameter per level they out-score a smooth cause
 that is too small to pass the surrogate margin alone, or several causes at once.
 
-The surrogate's error is a smooth function of the model inputs; so is any discrepancy that depends on the
-inputs alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitted on the other levels
-and so unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
-significant on their own, below the margin too). The id is named only where its offsets, with both held out by
-level, still pass every rule of a cause. A GPR posterior's draws were the first candidate for this null; on the
-structures generator's plants the surrogate's real variance between coils was 3.2 times the draws' (median; above
-their 95% quantile on 6 of 10 plants: benchmarks/surrogate_null_calibration.py), so the null is taken from the
-data instead.
+The surrogate's error is a smooth function of the model inputs; so is any discrepancy that depends on the inputs
+alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitted on the other levels and so
+unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
+significant on their own, uncorrected and below the margin too, the inputs' steps and bends among them). The id is
+named only where its offsets, with both held out by level, still pass every rule of a cause. A GPR posterior's
+draws were the first candidate for this null; on the structures generator's plants the surrogate's real variance
+between coils was 3.2 times the draws' (median; above their 95% quantile on 6 of 10 plants:
+benchmarks/surrogate_null_calibration.py), so the null is taken from the data instead.
 """
 
 from __future__ import annotations
@@ -54,12 +54,13 @@ def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nd
     return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(fold.max() + 1)]
 
 
-def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time")) -> list[Fit]:
-    """The smooth candidates that may account for an id's offsets: significant on their own but for the margin
-    (too small to be named alone), best first; of ``kinds`` (the input surface holds the inputs and their
-    products)."""
-    but_for_margin = [fit for fit in fits if is_significant(fit, 1, rules.settings, min_effect=0.0)]
-    usable = [fit for fit in but_for_margin if fit.candidate.kind in kinds]
+def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time", "input")) -> list[Fit]:
+    """The smooth candidates that may account for an id's offsets, best first: significant on their own at the
+    test's level, uncorrected for the number of candidates and of any size (several small causes may account for
+    the offsets together); of ``kinds``: the inputs' own closed forms too (a step the quadratic input surface
+    cannot hold), their products left to the surface."""
+    alone = [fit for fit in fits if is_significant(fit, 1, rules.settings, min_effect=0.0)]
+    usable = [fit for fit in alone if fit.candidate.kind in kinds]
     return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
 
 
@@ -111,7 +112,7 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
     (held out by level); with the names of what accounts for them and the share of its level differences."""
     inputs = [c for c in candidates if c.kind == "input"]
-    smooth = smooth_accounts(list(conditional.values()), rules, ("log", "time", "input"))
+    smooth = smooth_accounts(list(conditional.values()), rules)
     left = unaccounted(fit.candidate, y, inputs, smooth, rules)
     before = between_level_ss(fit.candidate.values, y)
     share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
