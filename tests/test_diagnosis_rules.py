@@ -562,3 +562,33 @@ def test_a_column_that_explains_most_of_what_an_id_does_goes_before_it():
     assert smooth_first(_scored("air_temp", "input", 0.3), coil, accounted=0.25)
     # a product may take up a few coils' offsets by chance: its share does not put it first
     assert not smooth_first(_scored("rm*cushion", "interaction", 0.75), coil, accounted=0.1)
+
+
+def test_the_spread_the_surrogate_error_gives_between_levels_is_its_chi_square_quantile():
+    assert ids.surrogate_spread(1.0, 21, 0.01) == pytest.approx(1.371, abs=1e-3)
+    assert ids.surrogate_spread(2.0, 21, 0.01) == pytest.approx(2 * 1.371, abs=2e-3)
+    assert ids.surrogate_spread(1.0, 80, 0.01) < ids.surrogate_spread(1.0, 21, 0.01)  # more levels, less chance
+    labels = np.repeat(np.arange(10), 30)
+    rng = np.random.default_rng(0)
+    assert ids.level_share(labels, rng.normal(size=10)[labels]) == pytest.approx(1.0)  # constant within a level
+    assert ids.level_share(labels, rng.normal(size=300)) < 0.1
+
+
+def test_coil_offsets_within_what_the_surrogate_error_gives_between_coils_are_not_named():
+    # 21 coils of a material (an input constant per coil): the surrogate's error has one draw per coil, and the
+    # spread of 21 draws exceeds the margin by up to 1.37 times (alpha 1%). Offsets nothing logged explains
+    rng = np.random.default_rng(21)
+    n_coils, per_coil = 21, 80
+    coil = np.repeat(np.arange(n_coils), per_coil)
+    frame = pd.DataFrame({"coil": [f"C-{c:03d}" for c in coil], "m1": rng.uniform(-1, 1, n_coils)[coil]})
+    offsets = rng.normal(0, 1, n_coils)
+    offsets = ((offsets - offsets.mean()) / offsets.std())[coil]
+    noise = rng.normal(0, 0.3, len(coil))
+    small = _diagnose(frame, 1.2 * offsets + noise, surrogate_std=1.0, inputs=("m1",))
+    assert small.selected == [] and "coil" in small.proxies
+    large = _diagnose(frame, 1.6 * offsets + noise, surrogate_std=1.0, inputs=("m1",))
+    assert [f.candidate.name for f in large.selected] == ["coil"]
+    # a shift's or a crew's levels, over which every input varies, hold little of the surrogate's error
+    frame["m1"] = rng.uniform(-1, 1, len(coil))
+    varied = _diagnose(frame, 1.2 * offsets + noise, surrogate_std=1.0, inputs=("m1",))
+    assert [f.candidate.name for f in varied.selected] == ["coil"]

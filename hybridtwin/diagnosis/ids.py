@@ -9,7 +9,8 @@ The surrogate's error is a smooth function of the model inputs; so is any discre
 alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitted on the other levels and so
 unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
 significant on their own, uncorrected and below the margin too, the inputs' steps and bends among them). The id is
-named only where its offsets, with both held out by level, still pass every rule of a cause. A GPR posterior's
+named only where its offsets, with both held out by level, still pass every rule of a cause, and spread more than
+the surrogate's error gives between as many levels (:func:`surrogate_spread`). A GPR posterior's
 draws were the first candidate for this null; on the structures generator's plants the surrogate's real variance
 between coils was 3.2 times the draws' (median; above their 95% quantile on 6 of 10 plants:
 benchmarks/surrogate_null_calibration.py), so the null is taken from the data instead.
@@ -18,6 +19,7 @@ benchmarks/surrogate_null_calibration.py), so the null is taken from the data in
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import chi2
 from sklearn.linear_model import Ridge, RidgeCV
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
@@ -117,4 +119,29 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     before = between_level_ss(fit.candidate.values, y)
     share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
     names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth]
-    return rules.significant(rules.best_fit(fit.candidate, left)), tuple(names), float(max(0.0, share))
+    remainder = rules.best_fit(fit.candidate, left)
+    labels = np.asarray(fit.candidate.values).astype(str)
+    per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
+    limit = surrogate_spread(rules.min_effect * np.sqrt(per_level), len(np.unique(labels)), rules.settings.alpha)
+    return rules.significant(remainder) and remainder.effect_std > limit, tuple(names), float(max(0.0, share))
+
+
+def level_share(labels, values) -> float:
+    """The share of a column's variance that lies between the levels of an id (1: constant within each level)."""
+    values = np.asarray(values, float)
+    total = float(np.sum((values - values.mean()) ** 2))
+    return between_level_ss(labels, values) / total if total > 0 else 0.0
+
+
+def surrogate_spread(error_std: float, n_levels: int, alpha: float) -> float:
+    """The spread (std) of ``n_levels`` offsets that the surrogate's own error exceeds with probability ``alpha``.
+
+    Where an input is constant within each level (the material of a coil), each level's share of the surrogate's
+    error is one draw of it, of std ``error_std`` (the surrogate's uncertainty times its margin, scaled by the
+    share of that input's variance between the levels: a shift, over which every input varies, holds little of
+    it). The spread of L such draws exceeds ``error_std`` times sqrt(chi2_{1-alpha}(L-1) / (L-1)): the margin a
+    smooth cause passes is their expected spread, and L offsets pass it by chance; an id must pass this quantile
+    (1.37 times the margin for 21 coils at alpha 1%, 1.19 for 80).
+    """
+    dof = max(1, n_levels - 1)
+    return error_std * float(np.sqrt(chi2.ppf(1.0 - alpha, dof) / dof))

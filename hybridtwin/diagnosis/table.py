@@ -85,7 +85,8 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
         names, share = found.proxies[name]
         return (
             f"an id, not a cause: {accounted_words(names)} account for {share:.0%} of the differences between its "
-            "levels (fitted on its other levels), and what is left passes no rule of a cause"
+            "levels (fitted on its other levels), and what is left is within what the surrogate's own error "
+            "gives between its levels or passes no other rule of a cause"
         )
     if found.aliases.get(name):
         return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
