@@ -112,7 +112,8 @@ def unaccounted(group: Candidate, y, inputs: list[Candidate], smooth: list[Fit],
 
 def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules):
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
-    (held out by level); with the names of what accounts for them and the share of its level differences."""
+    (held out by level), and spread more than the surrogate's own error gives between as many levels
+    (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences."""
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
     left = unaccounted(fit.candidate, y, inputs, smooth, rules)
