@@ -5,7 +5,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from hybridtwin.demo import structures
+from hybridtwin.demo import quantities, structures
 from hybridtwin.io.config import section_defaults
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate, surrogate_latent_std
@@ -89,7 +89,7 @@ def test_coils_are_shorter_than_as_long_as_or_longer_than_the_setting_campaigns(
     else:
         assert coil_length > 2 * campaign_length
     # the campaigns are the settings': a setting scatters little within one and moves between them
-    setting = next(c for c in case.inputs if c in {case.names[s] for s in structures._of_role(structures.SETTING)})
+    setting = next(c for c in case.inputs if c in {case.names[s] for s in quantities.of_role(quantities.SETTING)})
     levels = case.production.groupby(case.campaign)[setting]
     assert levels.std().mean() < 0.5 * levels.mean().std()
 

@@ -28,6 +28,17 @@ from scipy.stats import qmc
 
 from hybridtwin.demo import families
 from hybridtwin.demo.families import Expected, PlantCase
+from hybridtwin.demo.quantities import (
+    COIL_STYLES,
+    MATERIAL,
+    QUANTITIES,
+    RELATIONS,
+    SETTING,
+    SHIFT_LABELS,
+    THERMAL,
+    VOCABULARY,
+    of_role,
+)
 from hybridtwin.diagnosis.forms import SIGMOID_SPAN
 from hybridtwin.io.config import section_defaults
 from hybridtwin.paper.gate import KNNSupportGate
@@ -40,39 +51,6 @@ DETECTION_LIMIT = 1.0  # effect std over the surrogate's latent std below which 
 SIZE_RANGE = (0.3, 10.0)
 MIN_IN_SUPPORT = 0.07
 MIN_COILS_IN_SUPPORT = 10
-MATERIAL, THERMAL, SETTING = "material", "thermal", "setting"
-
-
-# a plant quantity: its DoE range, its role and the step it is set in (settings; 0: continuous)
-Quantity = namedtuple("Quantity", "low high role step", defaults=(0.0,))
-QUANTITIES = {
-    "thickness_mm": Quantity(0.62, 0.82, MATERIAL),
-    "rm_mpa": Quantity(280.0, 380.0, MATERIAL),
-    "rp02_mpa": Quantity(160.0, 250.0, MATERIAL),
-    "r_n": Quantity(1.4, 2.2, MATERIAL),
-    "lubricant": Quantity(0.6, 2.6, MATERIAL),
-    "die_temp_c": Quantity(15.0, 55.0, THERMAL),
-    "ambient_temp_c": Quantity(5.0, 35.0, THERMAL),
-    "oil_temp_c": Quantity(18.0, 50.0, THERMAL),
-    **{f"shim{k}_mm": Quantity(0.0, 0.6, SETTING, 0.05) for k in (20, 21)},
-    **{f"cushion_c{k}_kn": Quantity(150.0, 350.0, SETTING, 5.0) for k in range(1, 5)},
-    "blank_holder_kn": Quantity(600.0, 1000.0, SETTING, 10.0),
-    "press_speed_spm": Quantity(8.0, 20.0, SETTING, 1.0),
-}
-VOCABULARY = {
-    **families.INPUT_VOCABULARY,
-    **families.LOG_VOCABULARY,
-    "blank_holder_kn": ("blank_holder_kn", "BHF", "niederhalterkraft", "bh_force"),
-    "press_speed_spm": ("press_speed_spm", "SPM", "hubzahl", "stroke_rate"),
-    "oil_temp_c": ("oil_temp_c", "T_oil", "oeltemp", "press_oil_temp"),
-}
-SHIFT_LABELS = (("A", "B", "C"), ("F", "S", "N"), ("early", "late", "night"))
-COIL_STYLES = ("K{k:05d}", "C-{year}-{k:05d}", "{k:06d}-B", "L{lot:02d}/{k:05d}", "COIL_{k}")
-RELATIONS = ("shorter", "equal", "longer")  # a coil's length against a setting campaign's
-
-
-def _of_role(role: str, names=QUANTITIES) -> list[str]:
-    return [name for name in names if QUANTITIES[name].role == role]
 
 
 def _simulator(inputs: list[str], names: dict[str, str], rng: np.random.Generator) -> Callable:
@@ -113,12 +91,12 @@ def draw_structure(rng: np.random.Generator, n_production: int | None = None) ->
     """Inputs (at least one material and two settings), per-coil properties, coil and campaign counts, DoE size."""
     n = int(n_production or rng.integers(8_000, 30_001))
     n_inputs = int(rng.integers(6, 15))
-    required = [str(rng.choice(_of_role(MATERIAL))), *rng.choice(_of_role(SETTING), 2, replace=False)]
+    required = [str(rng.choice(of_role(MATERIAL))), *rng.choice(of_role(SETTING), 2, replace=False)]
     rest = [q for q in QUANTITIES if q not in required]
     chosen = {*required, *rng.choice(rest, n_inputs - 3, replace=False)}
     inputs = [q for q in QUANTITIES if q in chosen]
-    logged = [q for q in (*_of_role(THERMAL), "lubricant") if q not in inputs]
-    materials = [q for q in (*_of_role(MATERIAL, inputs), *logged) if QUANTITIES[q].role == MATERIAL]
+    logged = [q for q in (*of_role(THERMAL), "lubricant") if q not in inputs]
+    materials = [q for q in (*of_role(MATERIAL, inputs), *logged) if QUANTITIES[q].role == MATERIAL]
     per_coil = [q for q in materials if rng.random() < 0.6] or [str(rng.choice(materials))]
     relation = str(rng.choice(RELATIONS))
     # 12-30 campaigns of 2.5-5 coils each, as many coils as campaigns (15-100), or 15-40 coils of 2.5-5 campaigns
@@ -168,7 +146,7 @@ def _material(structure: Structure, coil: np.ndarray, rng: np.random.Generator) 
     n, n_coils = len(coil), coil.max() + 1
     strength = {True: rng.normal(0, 1, n_coils)[coil], False: rng.normal(0, 1, n)}
     values = {}
-    for name in _of_role(MATERIAL, structure.physical):
+    for name in of_role(MATERIAL, structure.physical):
         quantity, by_coil = QUANTITIES[name], name in structure.per_coil
         span = quantity.high - quantity.low
         own = rng.normal(0, 1, n_coils)[coil] if by_coil else rng.normal(0, 1, n)
@@ -183,7 +161,7 @@ def _settings(structure: Structure, campaign: np.ndarray, pull: float, rng: np.r
     partly beyond it (``pull`` in 0..1 moves the windows toward the DoE's centre: a redraw with more support)."""
     n, n_campaigns = len(campaign), campaign.max() + 1
     values = {}
-    for name in _of_role(SETTING, structure.inputs):
+    for name in of_role(SETTING, structure.inputs):
         quantity = QUANTITIES[name]
         span = quantity.high - quantity.low
         centre = quantity.low + span * (0.5 + (1.0 - pull) * rng.uniform(0.2, 0.9))
@@ -318,8 +296,8 @@ def _column_cause(plant: _Plant, form: str, exclude: set[str], column: str | Non
 def _product_cause(plant: _Plant, exclude: set[str]) -> _Cause:
     """A per-coil material input (any material input where none is per coil) times a setting."""
     inputs = [c for c in plant.structure.inputs if c not in exclude]
-    materials = [c for c in _of_role(MATERIAL, inputs) if c in plant.structure.per_coil] or _of_role(MATERIAL, inputs)
-    a, b = str(plant.rng.choice(materials)), str(plant.rng.choice(_of_role(SETTING, inputs)))
+    materials = [c for c in of_role(MATERIAL, inputs) if c in plant.structure.per_coil] or of_role(MATERIAL, inputs)
+    a, b = str(plant.rng.choice(materials)), str(plant.rng.choice(of_role(SETTING, inputs)))
     shape = _unit(plant.values(a), plant.inside) * _unit(plant.values(b), plant.inside)
     name = f"{plant.names[a]}*{plant.names[b]}"
     return _Cause(shape, Expected(name, ("product",)), f"interaction {name}", (a, b))
