@@ -148,6 +148,11 @@ def test_a_twin_column_is_accepted_only_where_it_reproduces_the_cause_within_the
     misfit = structures.twin_misfit(season, strokes, inside)
     assert 0 < misfit < 0.2  # a slow season is nearly a parabola in strokes
     assert structures.twin_misfit(rng.normal(size=2000), strokes, inside) > 0.9  # noise is none
-    for kind, seed in (("seasonal", 40019), ("wear", 40007)):
-        case = _case(kind, seed)
-        assert case.expected.twin in (None, case.names["strokes"] if kind == "seasonal" else case.names["time"])
+    # the twin is accepted where the misfit times the cause's size stays below the detection limit, and never
+    # in place of an alias the plant already holds
+    cause = structures._Cause(season, structures.Expected("time", ("quadratic",)), "", ("time",), ("strokes", strokes))
+    limit = structures.DETECTION_LIMIT / misfit
+    assert structures._with_twin(cause, 0.9 * limit, inside).twin == "strokes"
+    assert structures._with_twin(cause, 1.1 * limit, inside).twin is None
+    aliased = cause._replace(expected=structures.Expected("time", ("quadratic",), alias="hubzaehler"))
+    assert structures._with_twin(aliased, 0.1, inside) == aliased.expected

@@ -39,7 +39,7 @@ from hybridtwin.demo.quantities import (
     VOCABULARY,
     of_role,
 )
-from hybridtwin.diagnosis.forms import SIGMOID_SPAN
+from hybridtwin.diagnosis.forms import SIGMOID_SPAN, fit_form
 from hybridtwin.io.config import section_defaults
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate, surrogate_latent_std
@@ -327,11 +327,10 @@ def _time_line_cause(plant: _Plant, kind: str) -> _Cause:
 
 
 def twin_misfit(shape: np.ndarray, twin: np.ndarray, inside: np.ndarray) -> float:
-    """The std of what a parabola in the twin column leaves of a cause's shape in support, per unit of the shape's
-    std: times the cause's size (in the surrogate's uncertainty), the most the two columns' best fits differ by."""
-    x, y = _unit(twin, inside)[inside], _unit(shape, inside)[inside]
-    basis = np.column_stack([np.ones_like(x), x, x**2])
-    return float(np.std(y - basis @ np.linalg.lstsq(basis, y, rcond=None)[0]))
+    """The std of what the diagnosis' parabola in the twin column leaves of a cause's shape in support, per unit of
+    the shape's std: times the cause's size (in the surrogate's uncertainty), how far the two columns' fits differ."""
+    x, y = twin[inside].astype(float), _unit(shape, inside)[inside]
+    return float(np.std(y - fit_form("quadratic", x, y).predict(x)))
 
 
 def _with_twin(cause: _Cause, ratio: float, inside: np.ndarray) -> Expected:

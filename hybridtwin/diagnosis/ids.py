@@ -56,13 +56,13 @@ def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nd
     return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(fold.max() + 1)]
 
 
-def smooth_accounts(fits: list[Fit], rules: Rules, kinds=("log", "time", "input")) -> list[Fit]:
+def smooth_accounts(fits: list[Fit], rules: Rules) -> list[Fit]:
     """The smooth candidates that may account for an id's offsets, best first: significant on their own at the
     test's level, uncorrected for the number of candidates and of any size (several small causes may account for
-    the offsets together); of ``kinds``: the inputs' own closed forms too (a step the quadratic input surface
-    cannot hold), their products left to the surface."""
+    the offsets together); logged quantities, time, and the inputs' own closed forms (a step the quadratic input
+    surface cannot hold), their products left to the surface."""
     alone = [fit for fit in fits if is_significant(fit, 1, rules.settings, min_effect=0.0)]
-    usable = [fit for fit in alone if fit.candidate.kind in kinds]
+    usable = [fit for fit in alone if fit.candidate.kind in ("log", "time", "input")]
     return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
 
 
