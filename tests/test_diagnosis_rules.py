@@ -1,5 +1,7 @@
 """hybridtwin.diagnosis: the selection rules, each on a small constructed plant whose right answer is known."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -382,6 +384,29 @@ def test_the_smooth_candidates_that_may_account_for_an_id_are_the_best_three_sig
     # an input's own closed form counts (a step the quadratic surface cannot hold)
     step = _smooth("oil_film", values, score=-4.0, kind="input")
     assert [f.candidate.name for f in ids.smooth_accounts([*fits, step], rules)] == ["wear", "oil_film", "a_ambient"]
+
+
+def test_an_id_that_stands_goes_after_the_causes_only_not_after_chance_candidates():
+    # 30 coils with offsets of their own; an ambient reading follows them by chance (significant at 0.005 of 200
+    # tests: far from a cause) and takes up part of their differences. Both kinds of candidate may say whether the
+    # id stands; only causes (corrected, logged quantities and time) may put a smooth cause before it
+    rng = np.random.default_rng(8)
+    coil = np.repeat(np.arange(30), 40)
+    own = rng.normal(0, 2.0, 30)[coil]
+    y = own + rng.normal(0, 0.3, len(coil))
+    ambient = 0.6 * own + rng.normal(0, 1.0, len(coil))
+    group = Candidate.new("coil", "group", np.array([f"C-{c:02d}" for c in coil]), ("coil",))
+    rules = fitting.Rules(SETTINGS, n_tests=200, min_effect=0.0)
+    chance = rules.best_fit(Candidate.new("ambient", "log", ambient, ("ambient",)), y)
+    chance = dataclasses.replace(chance, p_value=0.005)
+    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": chance}, rules)
+    assert stands and names == () and share < 0.05
+    cause = dataclasses.replace(chance, p_value=1e-9)
+    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": cause}, rules)
+    assert stands and names == ("ambient",) and share > 0.2
+    assert ids.smooth_accounts([chance], rules) == [chance] and ids.smooth_accounts([chance], rules, True) == []
+    as_input = dataclasses.replace(cause, candidate=Candidate.new("ambient", "input", ambient, ("ambient",)))
+    assert ids.smooth_accounts([as_input], rules, corrected=True) == []  # the input surface holds the inputs
 
 
 def test_the_input_surface_is_shrunk_by_its_error_on_held_out_coils_not_on_rows():

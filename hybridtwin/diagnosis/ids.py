@@ -56,13 +56,15 @@ def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nd
     return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(fold.max() + 1)]
 
 
-def smooth_accounts(fits: list[Fit], rules: Rules) -> list[Fit]:
+def smooth_accounts(fits: list[Fit], rules: Rules, corrected: bool = False) -> list[Fit]:
     """The smooth candidates that may account for an id's offsets, best first: significant on their own at the
-    test's level, uncorrected for the number of candidates and of any size (several small causes may account for
-    the offsets together); logged quantities, time, and the inputs' own closed forms (a step the quadratic input
-    surface cannot hold), their products left to the surface."""
-    alone = [fit for fit in fits if is_significant(fit, 1, rules.settings, min_effect=0.0)]
-    usable = [fit for fit in alone if fit.candidate.kind in ("log", "time", "input")]
+    test's level, of any size; uncorrected for the number of candidates (several small causes may account for
+    the offsets together) or, ``corrected``, as a cause is (the causes that go before the id); logged quantities,
+    time, and the inputs' own closed forms (a step the quadratic input surface cannot hold), their products left
+    to the surface."""
+    n_tests, kinds = (rules.n_tests, ("log", "time")) if corrected else (1, ("log", "time", "input"))
+    alone = [fit for fit in fits if is_significant(fit, n_tests, rules.settings, min_effect=0.0)]
+    usable = [fit for fit in alone if fit.candidate.kind in kinds]
     return sorted(usable, key=lambda fit: (fit.score, fit.candidate.name))[:MAX_SMOOTH]
 
 
@@ -113,18 +115,33 @@ def unaccounted(group: Candidate, y, inputs: list[Candidate], smooth: list[Fit],
 def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules):
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
     (held out by level), and spread more than the surrogate's own error gives between as many levels
-    (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences."""
+    (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences.
+
+    An id that stands is named after a smooth cause only where the input surface and the candidates that are
+    significant as causes are (the share returned is theirs): chance candidates, significant only uncorrected,
+    may not order the causes. Measured on 22 coils in time order, the ambient temperature, a cushion force and a
+    radius took up 55% of random coil offsets held out by level (families draw 1303).
+    """
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
     left = unaccounted(fit.candidate, y, inputs, smooth, rules)
-    before = between_level_ss(fit.candidate.values, y)
-    share = 1.0 - between_level_ss(fit.candidate.values, left) / before if before > 0 else 0.0
     names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth]
     remainder = rules.best_fit(fit.candidate, left)
     labels = np.asarray(fit.candidate.values).astype(str)
     per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
     limit = surrogate_spread(rules.min_effect * np.sqrt(per_level), len(np.unique(labels)), rules.settings.alpha)
-    return rules.significant(remainder) and remainder.effect_std > limit, tuple(names), float(max(0.0, share))
+    stands = bool(rules.significant(remainder) and remainder.effect_std > limit)
+    if stands:
+        causes = smooth_accounts(list(conditional.values()), rules, corrected=True)
+        left = left if causes == smooth else unaccounted(fit.candidate, y, inputs, causes, rules)
+        names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in causes]
+    return stands, tuple(names), accounted_share(fit.candidate.values, y, left)
+
+
+def accounted_share(labels, y, left) -> float:
+    """The share of the differences between an id's levels in ``y`` that is gone in ``left``."""
+    before = between_level_ss(labels, y)
+    return float(max(0.0, 1.0 - between_level_ss(labels, left) / before)) if before > 0 else 0.0
 
 
 def level_share(labels, values) -> float:
