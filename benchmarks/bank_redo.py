@@ -1,8 +1,9 @@
 """Benchmark: the plants of an earlier structures bank whose answer a change of the id rules could move, rerun.
 
 Reruns, with today's code, every plant of a ``structures_bank.py`` CSV that got a wrong answer, named an id, or
-holds a coil effect (the plants the id rules can touch), and writes a table of the answer before and after, with
-the ids named. The baselines (TreeSHAP, the EBM) are not rerun: they do not depend on the diagnosis. Usage:
+holds a coil effect (the plants the id rules can touch; ``--all``: every plant), and writes a table of the answer
+before and after, with the ids named. The baselines (TreeSHAP, the EBM) are not rerun: they do not depend on the
+diagnosis. Usage:
 
     python benchmarks/bank_redo.py benchmarks/results/structures_bank_seed4.csv --out benchmarks/results/x.md
 """
@@ -39,15 +40,20 @@ def rerun(row, jobs: int) -> dict:
     )
 
 
-def report(bank: pd.DataFrame, redone: pd.DataFrame) -> str:
+def report(bank: pd.DataFrame, redone: pd.DataFrame, which: str) -> str:
     no_id_effect = redone["kind"] != "coil"
     changed = redone[(redone["before"] != redone["after"]) | (redone["id_before"] != redone["id_after"])]
     right = int(bank["answer_ok"].sum()) - int(redone["before"].sum()) + int(redone["after"].sum())
     lines = [
-        f"plants rerun: {len(redone)} of {len(bank)} (a wrong answer, an id named, or a coil effect)",
+        f"plants rerun: {len(redone)} of {len(bank)} ({which})",
         f"right answers over the bank: {int(bank['answer_ok'].sum())} -> {right} of {len(bank)}",
         f"an id named on plants without an id effect: {int(bank.loc[bank['kind'] != 'coil', 'id_named'].sum())} -> "
         f"{int(redone.loc[no_id_effect, 'id_after'].sum())}",
+        "right answers per kind, among the plants rerun (before -> after): "
+        + ", ".join(
+            f"{kind} {int(g['before'].sum())} -> {int(g['after'].sum())} of {len(g)}"
+            for kind, g in redone.groupby("kind", sort=False)
+        ),
         "",
         "| kind | draw | size | right before | right after | chosen before | chosen after |",
         "|---|---:|---:|---|---|---|---|",
@@ -64,13 +70,18 @@ def main() -> None:
     parser.add_argument("bank", help="a structures_bank.py CSV")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", required=True, help="the Markdown table (a CSV of every plant beside it)")
+    parser.add_argument("--all", action="store_true", help="rerun every plant, not only those the id rules can touch")
     args = parser.parse_args()
     warnings.filterwarnings("ignore", category=UserWarning)
     bank = pd.read_csv(args.bank)
-    redone = pd.DataFrame([rerun(row, args.jobs) for row in touched(bank).itertuples()])
+    plants, which = (
+        (bank, "every plant") if args.all else (touched(bank), "a wrong answer, an id named, or a coil effect")
+    )
+    redone = pd.DataFrame([rerun(row, args.jobs) for row in plants.itertuples()])
     out = Path(args.out)
     redone.to_csv(out.with_suffix(".csv"), index=False)
-    text = f"`python benchmarks/bank_redo.py {args.bank} --out {args.out}`\n\n" + report(bank, redone)
+    command = f"python benchmarks/bank_redo.py {args.bank}{' --all' if args.all else ''} --out {args.out}"
+    text = f"`{command}`\n\n" + report(bank, redone, which)
     out.write_text(text + "\n")
     print(text)
 
