@@ -12,7 +12,6 @@ from hybridtwin.metrics import (
     bias,
     block_gains,
     block_p_value,
-    evidence_p_value,
     lag1_correlation,
     mae,
     r2,
@@ -77,21 +76,6 @@ def test_the_signed_rank_test_weighs_each_block_by_the_rank_of_its_gain():
     mixed = gains_of([0.0, 0.5, 1.0, 1.5, 3.0], 20)
     assert signed_rank_p_value(y, mixed, reference, 5, 5) == pytest.approx(10 / 32)
     assert signed_rank_p_value(y, reference, reference, 5, 5) == 1.0  # no gain anywhere
-
-
-def test_evidence_is_the_smaller_of_the_t_test_and_the_signed_rank_test_doubled():
-    # ten coils of 40 parts, one block of 20 each half-coil; each coil's offset is predicted exactly
-    rng = np.random.default_rng(0)
-    offsets = np.r_[40.0, np.full(9, 1.0)]  # positive gain in every block, one coil carries most of it
-    y = np.repeat(offsets * rng.choice([-1, 1], 10), 40)
-    unequal = evidence_p_value(y, y, 20)
-    t_alone = block_p_value(y, y, 20)
-    assert unequal < 1e-4 and t_alone > 0.05  # every one of 20 blocks positive: the ranks see it
-    # the gain in two blocks only, the rest a small loss: the t-test sees it, the ranks do not
-    prediction = np.r_[y[:40], np.zeros(360) + 0.01]
-    few = evidence_p_value(y, prediction, 20)
-    assert few == pytest.approx(2 * block_p_value(y, prediction, 20)) and few < 0.2
-    assert evidence_p_value(y, -y, 20) == 1.0  # worse everywhere: capped at one
 
 
 def test_metrics_by_hand():
