@@ -59,9 +59,9 @@ def level_folds(labels, n_folds: int, seed: int) -> list[tuple[np.ndarray, np.nd
 def smooth_accounts(fits: list[Fit], rules: Rules, corrected: bool = False) -> list[Fit]:
     """The smooth candidates that may account for an id's offsets, best first: significant on their own at the
     test's level, of any size; uncorrected for the number of candidates (several small causes may account for
-    the offsets together) or, ``corrected``, as a cause is (the causes that go before the id); logged quantities,
-    time, and the inputs' own closed forms (a step the quadratic input surface cannot hold), their products left
-    to the surface."""
+    the offsets together) or, ``corrected``, for them as a cause's test is (these may go before the id; the
+    inputs then left to the surface); logged quantities, time, and the inputs' own closed forms (a step the
+    quadratic input surface cannot hold), their products left to the surface."""
     n_tests, kinds = (rules.n_tests, ("log", "time")) if corrected else (1, ("log", "time", "input"))
     alone = [fit for fit in fits if is_significant(fit, n_tests, rules.settings, min_effect=0.0)]
     usable = [fit for fit in alone if fit.candidate.kind in kinds]
@@ -117,10 +117,11 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     (held out by level), and spread more than the surrogate's own error gives between as many levels
     (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences.
 
-    An id that stands is named after a smooth cause only where the input surface and the candidates that are
-    significant as causes are (the share returned is theirs): chance candidates, significant only uncorrected,
-    may not order the causes. Measured on 22 coils in time order, the ambient temperature, a cushion force and a
-    radius took up 55% of random coil offsets held out by level (families draw 1303).
+    An id that stands is named after a smooth cause only where the input surface and the logged quantities and
+    time significant after the correction account for its offsets (the share returned is theirs): candidates
+    significant only uncorrected, and the inputs' closed forms, may not order the causes. On 22 coils in time
+    order, closed forms of the ambient temperature, a cushion force and a radius took up 55% of coil offsets
+    that no logged column holds, held out by level (families draw 1303).
     """
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
