@@ -98,13 +98,27 @@ def level_penalty(inputs: np.ndarray, y, splits) -> float:
     return float(search.fit(inputs, y).steps[-1][1].alpha_)
 
 
-def unaccounted(group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules) -> np.ndarray:
+def _design(group: Candidate, inputs: list[Candidate], rules: Rules):
+    """Folds of whole levels of ``group`` and the inputs' matrix (None without inputs)."""
+    splits = level_folds(group.values, rules.settings.folds, rules.settings.seed)
+    return splits, (np.column_stack([c.values for c in inputs]) if inputs else None)
+
+
+def surface_penalty(group: Candidate, y, inputs: list[Candidate], rules: Rules) -> float | None:
+    """The input surface's ridge penalty for ``group``'s offsets in ``y`` (:func:`level_penalty`)."""
+    splits, matrix = _design(group, inputs, rules)
+    return level_penalty(matrix, y, splits) if matrix is not None else None
+
+
+def unaccounted(
+    group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules, penalty=None
+) -> np.ndarray:
     """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
-    levels of ``group``: what the id's offsets hold beyond them."""
-    settings = rules.settings
-    splits = level_folds(group.values, settings.folds, settings.seed)
-    matrix = np.column_stack([c.values for c in inputs]) if inputs else None
-    penalty = level_penalty(matrix, y, splits) if matrix is not None else None
+    levels of ``group``: what the id's offsets hold beyond them. ``penalty``: the surface's, if known
+    (:func:`surface_penalty`)."""
+    splits, matrix = _design(group, inputs, rules)
+    if matrix is not None and penalty is None:
+        penalty = level_penalty(matrix, y, splits)
     explained = np.zeros(len(y))
     for train, test in splits:
         explained[test] = _predict_held_out(train, test, y, matrix, smooth, penalty)
@@ -125,18 +139,23 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     """
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
-    left = unaccounted(fit.candidate, y, inputs, smooth, rules)
-    names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth]
+    penalty = surface_penalty(fit.candidate, y, inputs, rules)
+    left = unaccounted(fit.candidate, y, inputs, smooth, rules, penalty)
     remainder = rules.best_fit(fit.candidate, left)
     labels = np.asarray(fit.candidate.values).astype(str)
     per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
     limit = surrogate_spread(rules.min_effect * np.sqrt(per_level), len(np.unique(labels)), rules.settings.alpha)
     stands = bool(rules.significant(remainder) and remainder.effect_std > limit)
-    if stands:
+    if stands:  # what orders the causes: the surface and the corrected candidates
         causes = smooth_accounts(list(conditional.values()), rules, corrected=True)
-        left = left if causes == smooth else unaccounted(fit.candidate, y, inputs, causes, rules)
-        names = ([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in causes]
-    return stands, tuple(names), accounted_share(fit.candidate.values, y, left)
+        if _names(inputs, causes) != _names(inputs, smooth):
+            smooth, left = causes, unaccounted(fit.candidate, y, inputs, causes, rules, penalty)
+    return stands, _names(inputs, smooth), accounted_share(fit.candidate.values, y, left)
+
+
+def _names(inputs: list[Candidate], smooth: list[Fit]) -> tuple[str, ...]:
+    """What accounts for an id's offsets, in words: the input surface, then the smooth candidates."""
+    return tuple(([INPUT_SURFACE] if inputs else []) + [f.candidate.name for f in smooth])
 
 
 def accounted_share(labels, y, left) -> float:
