@@ -20,7 +20,7 @@ from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.policy import BINS_PER_FOLD, MAX_CLOSED_FORM_PARAMS, SHARE_TOLERANCE
 from hybridtwin.diagnosis.settings import Settings
-from hybridtwin.metrics import block_p_value
+from hybridtwin.metrics import evidence_p_value
 
 log = logging.getLogger(__name__)
 
@@ -126,7 +126,7 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
                 cv_mse,
                 null_mse,
                 float(score),
-                block_p_value(y, oof, settings.n_blocks),
+                evidence_p_value(y, oof, settings.n_blocks),
                 float(np.ptp(fitted)),
                 float(np.std(fitted)),
             )
