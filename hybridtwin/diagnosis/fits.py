@@ -20,7 +20,7 @@ from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.policy import BINS_PER_FOLD, MAX_CLOSED_FORM_PARAMS, SHARE_TOLERANCE
 from hybridtwin.diagnosis.settings import Settings
-from hybridtwin.metrics import block_p_value, evidence_p_value
+from hybridtwin.metrics import block_p_value
 
 log = logging.getLogger(__name__)
 
@@ -100,15 +100,6 @@ def held_out_worst(name: str, candidate: Candidate, y, settings: Settings) -> np
     return max(predictions, key=lambda oof: float(np.mean((y - oof) ** 2)))
 
 
-def gain_p_value(candidate: Candidate, y, oof, n_blocks: int) -> float:
-    """The p-value of a candidate's held-out gain over blocks of consecutive parts: an id's by the t-test or the
-    signed-rank test (:func:`~hybridtwin.metrics.evidence_p_value`), since a few of its levels far from the rest carry
-    most of its gain; a column's, a product's or time's by the t-test (:func:`~hybridtwin.metrics.block_p_value`)."""
-    if candidate.kind == "group":
-        return evidence_p_value(y, oof, n_blocks)
-    return block_p_value(y, oof, n_blocks)
-
-
 def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.0) -> Fit:
     """The candidate's form with the lowest penalized held-out error (BIC-style penalty).
 
@@ -135,7 +126,7 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
                 cv_mse,
                 null_mse,
                 float(score),
-                gain_p_value(candidate, y, oof, settings.n_blocks),
+                block_p_value(y, oof, settings.n_blocks),
                 float(np.ptp(fitted)),
                 float(np.std(fitted)),
             )
