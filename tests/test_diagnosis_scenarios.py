@@ -27,10 +27,11 @@ def _draws():
         ]
     demo = [("demo", kind, seed) for kind in scenarios.KINDS for seed in (1, 2)]
     demo += [("demo", kind, 12345 + i) for i, kind in enumerate(scenarios.KINDS)]
-    # two-cause draws of the families bank: the coil id once named in place of a saturation and a wear (1484);
+    # two-cause draws of the families bank beside draw 1 (a generic second one, 2404, left for CI's 15 minutes):
+    # the coil id once named in place of a saturation and a wear (1484);
     # a cushion product that gave way to its shim, named in place of the wear (1420); a plant of the structures
     # bank where the lot id was named for the slope of a per-lot yield strength (40065)
-    extra = [("families", "two_causes", draw) for draw in (2404, 1484, 1420)] + [("structures", "linear", 40065)]
+    extra = [("families", "two_causes", draw) for draw in (1484, 1420)] + [("structures", "linear", 40065)]
     return demo + [("families", family, 1) for family in families.FAMILIES] + extra + STRUCTURES
 
 
