@@ -18,6 +18,8 @@ benchmarks/surrogate_null_calibration.py), so the null is taken from the data in
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.stats import chi2
 from sklearn.linear_model import Ridge, RidgeCV
@@ -98,30 +100,31 @@ def level_penalty(inputs: np.ndarray, y, splits) -> float:
     return float(search.fit(inputs, y).steps[-1][1].alpha_)
 
 
-def _design(group: Candidate, inputs: list[Candidate], rules: Rules):
-    """Folds of whole levels of ``group`` and the inputs' matrix (None without inputs)."""
-    splits = level_folds(group.values, rules.settings.folds, rules.settings.seed)
-    return splits, (np.column_stack([c.values for c in inputs]) if inputs else None)
+@dataclass(frozen=True)
+class LevelDesign:
+    """What an id's accounting fits on, made once per id: folds of whole levels, the inputs' matrix and the input
+    surface's ridge penalty (both None without inputs)."""
 
+    splits: list[tuple[np.ndarray, np.ndarray]]
+    matrix: np.ndarray | None
+    penalty: float | None
 
-def surface_penalty(group: Candidate, y, inputs: list[Candidate], rules: Rules) -> float | None:
-    """The input surface's ridge penalty for ``group``'s offsets in ``y`` (:func:`level_penalty`)."""
-    splits, matrix = _design(group, inputs, rules)
-    return level_penalty(matrix, y, splits) if matrix is not None else None
+    @classmethod
+    def of(cls, group: Candidate, y, inputs: list[Candidate], rules: Rules) -> "LevelDesign":
+        splits = level_folds(group.values, rules.settings.folds, rules.settings.seed)
+        matrix = np.column_stack([c.values for c in inputs]) if inputs else None
+        return cls(splits, matrix, level_penalty(matrix, y, splits) if matrix is not None else None)
 
 
 def unaccounted(
-    group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules, penalty=None
+    group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules, design: LevelDesign | None = None
 ) -> np.ndarray:
     """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
-    levels of ``group``: what the id's offsets hold beyond them. ``penalty``: the surface's, if known
-    (:func:`surface_penalty`)."""
-    splits, matrix = _design(group, inputs, rules)
-    if matrix is not None and penalty is None:
-        penalty = level_penalty(matrix, y, splits)
+    levels of ``group``: what the id's offsets hold beyond them. ``design``: the id's, if made already."""
+    design = design or LevelDesign.of(group, y, inputs, rules)
     explained = np.zeros(len(y))
-    for train, test in splits:
-        explained[test] = _predict_held_out(train, test, y, matrix, smooth, penalty)
+    for train, test in design.splits:
+        explained[test] = _predict_held_out(train, test, y, design.matrix, smooth, design.penalty)
     left = y - explained
     return left - left.mean()
 
@@ -139,8 +142,8 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     """
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
-    penalty = surface_penalty(fit.candidate, y, inputs, rules)
-    left = unaccounted(fit.candidate, y, inputs, smooth, rules, penalty)
+    design = LevelDesign.of(fit.candidate, y, inputs, rules)
+    left = unaccounted(fit.candidate, y, inputs, smooth, rules, design)
     remainder = rules.best_fit(fit.candidate, left)
     labels = np.asarray(fit.candidate.values).astype(str)
     per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
@@ -149,7 +152,7 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     if stands:  # what orders the causes: the surface and the corrected candidates
         causes = smooth_accounts(list(conditional.values()), rules, corrected=True)
         if _names(inputs, causes) != _names(inputs, smooth):
-            smooth, left = causes, unaccounted(fit.candidate, y, inputs, causes, rules, penalty)
+            smooth, left = causes, unaccounted(fit.candidate, y, inputs, causes, rules, design)
     return stands, _names(inputs, smooth), accounted_share(fit.candidate.values, y, left)
 
 
