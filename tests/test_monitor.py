@@ -331,3 +331,15 @@ def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousa
     assert (kind, column) == (NEW, "shim")
     kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3000)  # 3,000 not judged: too far
     assert (kind, column) == (UNEXPLAINED, None)
+
+
+def test_a_shift_over_the_levels_is_dated_at_its_likeliest_start_not_at_the_charts_last_zero():
+    # regimes' levels that drifted up by chance (in control), then a shift of 3.5 level SDs from the sixth on
+    steps = np.array([1.5, 1.2, 1.4, 0.2, 1.3, 3.5, 3.4, 3.6, 3.5, 3.3, 3.5])
+    cusum = chart.cusum(steps, chart.LEVEL_REFERENCE, 12.0)
+    assert cusum.start_at == 0 and cusum.alarm_at is not None  # the last zero: before the in-control drift
+    assert chart.likeliest_start(steps, cusum.start_at, cusum.alarm_at, cusum.direction) == 5
+    assert chart.likeliest_start(-steps, 0, len(steps) - 1, -1) == 5  # the same, downwards
+    spaced = np.full(3 * len(steps), np.nan)
+    spaced[::3] = steps  # a level is known at one part of its regime: the others are NaN
+    assert chart.likeliest_start(spaced, 0, len(spaced) - 1, 1) == 15

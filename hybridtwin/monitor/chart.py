@@ -172,7 +172,8 @@ def regime_chart(residual, z, region, group, constants: Constants) -> Chart:
     group = np.asarray(group)
     residual = np.where(np.isnan(np.asarray(z, float)), np.nan, np.asarray(residual, float))
     inner = cusum(within_steps(residual, region, group, constants), WITHIN_REFERENCE, constants.within_limit)
-    outer = cusum(level_steps(z, group, constants), LEVEL_REFERENCE, constants.level_limit)
+    levels = level_steps(z, group, constants)
+    outer = cusum(levels, LEVEL_REFERENCE, constants.level_limit)
     a, b = LIMIT / constants.within_limit, LIMIT / constants.level_limit
     up, down = np.maximum(inner.up * a, outer.up * b), np.maximum(inner.down * a, outer.down * b)
     z = np.asarray(z, float)
@@ -182,7 +183,23 @@ def regime_chart(residual, z, region, group, constants: Constants) -> Chart:
     at, name, alarmed = min(candidates, key=lambda item: item[0])
     start = alarmed.start_at
     if name == LEVEL:  # a regime's level is known at its last counted part: the change began with the regime
+        start = likeliest_start(levels, start, at, alarmed.direction)
         start = int(np.flatnonzero((group == group[start]) & ~np.isnan(z))[0])
     return Chart(
         z, up, down, LIMIT, WITHIN_REFERENCE, at, start, alarmed.direction, name, group, constants.pooled_scale
     )
+
+
+def likeliest_start(steps: np.ndarray, first: int, at: int, direction: int) -> int:
+    """The index, among the charted ``steps`` (NaN: none) from ``first`` to ``at``, where a shift of unknown size
+    in ``direction`` most likely began: the maximum-likelihood change point of a mean shift from zero in unit-
+    variance steps, ``argmax_tau (sum_{t >= tau} x_t)^2 / n_tau`` over the steps of the shift's sign (Hinkley
+    1971). The CUSUM's last zero, ``first``, dates a shift early whenever the in-control steps before it happened
+    to drift the same way; a setting that stepped there would then be named for a change that came later."""
+    where = first + np.flatnonzero(~np.isnan(steps[first : at + 1]))
+    if len(where) < 2:
+        return first
+    tail = np.cumsum((direction * steps[where])[::-1])[::-1]  # the sum from each step to the alarm
+    counts = np.arange(len(where), 0, -1)
+    score = np.where(tail > 0, tail**2 / counts, 0.0)
+    return int(where[int(np.argmax(score))])
