@@ -343,3 +343,12 @@ def test_a_shift_over_the_levels_is_dated_at_its_likeliest_start_not_at_the_char
     spaced = np.full(3 * len(steps), np.nan)
     spaced[::3] = steps  # a level is known at one part of its regime: the others are NaN
     assert chart.likeliest_start(spaced, 0, len(spaced) - 1, 1) == 15
+
+
+def test_limits_set_on_a_short_log_are_called_a_hint(regime_predictor, parts):
+    watched = watch.watch(regime_predictor, parts, explain=False)
+    assert watched.log_parts is None and not words.short_log(watched)  # models that did not store it: no caution
+    for log_parts, cautioned in ((400, True), (words.SHORT_LOG, False)):
+        watched.log_parts = log_parts
+        assert ("a log of 400 parts" in words.summary(watched)) == cautioned
+        assert ("a log of 400 parts" in words.markdown(watched, "batch.csv")) == cautioned
