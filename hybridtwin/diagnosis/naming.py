@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from joblib import Parallel, delayed
 
 from hybridtwin.diagnosis.candidates import Candidate
 from hybridtwin.diagnosis.fits import Fit, Rules, fold_sets, held_out, predicts_the_same
@@ -111,20 +110,15 @@ def proxy_share(proxy: Fit, rival: Fit, y) -> float:
     return 1.0 - after / before
 
 
-def held_out_sum(columns: list[Fit], splits, y, n_jobs: int = 1) -> np.ndarray:
-    """Held-out predictions of several columns' forms fitted together (backfitting) on each fold's rows (the
-    folds side by side on ``n_jobs`` cores: backfitting refits each form twenty times)."""
-    values, names = [f.candidate.values for f in columns], [f.form.name for f in columns]
-    folds = Parallel(n_jobs=n_jobs)(delayed(_fold_sum)(values, names, y, train, test) for train, test in splits)
+def held_out_sum(columns: list[Fit], splits, y) -> np.ndarray:
+    """Held-out predictions of several columns' forms fitted together (backfitting) on each fold's rows."""
     oof = np.empty(len(y))
-    for (_, test), predicted in zip(splits, folds):
-        oof[test] = predicted
+    for train, test in splits:
+        models, means = backfit([f.candidate.values[train] for f in columns], [f.form.name for f in columns], y[train])
+        oof[test] = y[train].mean() + sum(
+            m.predict(f.candidate.values[test]) - c for m, f, c in zip(models, columns, means)
+        )
     return oof
-
-
-def _fold_sum(values: list, names: list[str], y, train, test) -> np.ndarray:
-    models, means = backfit([x[train] for x in values], names, y[train])
-    return y[train].mean() + sum(m.predict(x[test]) - c for m, x, c in zip(models, values, means))
 
 
 def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rules) -> Fit:
@@ -146,7 +140,7 @@ def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rul
     single = min(columns, key=lambda fit: (fit.score, fit.candidate.name))
     for splits in fold_sets(best.candidate, settings):
         product = held_out(best.form.name, best.candidate.values, y, splits)
-        both = held_out_sum(columns, splits, y, settings.n_jobs)
+        both = held_out_sum(columns, splits, y)
         if block_p_value(y, product, settings.n_blocks, reference=both) < settings.alpha:
             continue
         # no better than the two columns apart: one of them alone, unless the two apart are no better than
