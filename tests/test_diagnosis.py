@@ -14,7 +14,7 @@ from hybridtwin.crossval import (
 )
 from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
 from hybridtwin.diagnosis import fits as fitting
-from hybridtwin.diagnosis.causes import Cause
+from hybridtwin.diagnosis.causes import Cause, parse_timestamps
 from tests.test_diagnosis_rules import coil_plant, material_coils, warming_die
 
 
@@ -559,3 +559,13 @@ def test_a_pair_is_an_interaction_only_where_the_product_beats_its_main_effects(
     assert fit.form.name == expected
     assert is_significant(fit, 1, Settings(), min_effect=0.1) == with_product
     assert diagnosis.forms.FAMILIES[fit.form.name] == ("interaction" if with_product else "additive")
+
+
+def test_day_first_stamps_read_in_one_format_as_each_on_its_own_and_a_mixed_column_still_reads():
+    stamps = pd.Series(pd.date_range("2025-03-11 06:00", periods=500, freq="37s")).dt.strftime("%d.%m.%Y %H:%M:%S")
+    one_by_one = pd.to_datetime(stamps, format="mixed", dayfirst=True)
+    assert parse_timestamps(stamps).equals(one_by_one) and parse_timestamps(stamps).iloc[0].month == 3
+    mixed = pd.Series(["04.03.2026 06:00:00", "05.03.2026 07:30", "13.03.2026"])  # no one format fits all
+    assert parse_timestamps(mixed).tolist() == [pd.Timestamp(t) for t in ("2026-03-04 06:00", "2026-03-05 07:30",
+                                                                           "2026-03-13")]  # fmt: skip
+    assert parse_timestamps(pd.Series(["C-001", "C-002", "C-003"])) is None
