@@ -565,7 +565,7 @@ def test_day_first_stamps_read_in_one_format_as_each_on_its_own_and_a_mixed_colu
     stamps = pd.Series(pd.date_range("2025-03-11 06:00", periods=500, freq="37s")).dt.strftime("%d.%m.%Y %H:%M:%S")
     one_by_one = pd.to_datetime(stamps, format="mixed", dayfirst=True)
     assert parse_timestamps(stamps).equals(one_by_one) and parse_timestamps(stamps).iloc[0].month == 3
-    mixed = pd.Series(["04.03.2026 06:00:00", "05.03.2026 07:30", "13.03.2026"])  # no one format fits all
-    assert parse_timestamps(mixed).tolist() == [pd.Timestamp(t) for t in ("2026-03-04 06:00", "2026-03-05 07:30",
-                                                                           "2026-03-13")]  # fmt: skip
+    mixed = pd.Series(["04.03.2026 06:00:00", "05.03.2026 07:30", "13.03.2026", "2026-03-06 08:00:00"])
+    expected = ("2026-03-04 06:00", "2026-03-05 07:30", "2026-03-13", "2026-03-06 08:00")  # no one format fits all
+    assert parse_timestamps(mixed).tolist() == [pd.Timestamp(t) for t in expected]
     assert parse_timestamps(pd.Series(["C-001", "C-002", "C-003"])) is None

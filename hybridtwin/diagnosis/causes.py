@@ -63,7 +63,7 @@ def parse_timestamps(values: pd.Series) -> pd.Series | None:
 def _day_first(text: pd.Series) -> pd.Series:
     """Day-first stamps: in the one format pandas infers from the first stamp, read at once, where every stamp
     has it (an Excel export's 04.03.2026 06:00:00: 50 times faster than reading each stamp on its own);
-    otherwise each stamp in its own format."""
+    otherwise each stamp in its own format, ISO ones as ISO."""
     import warnings
 
     with warnings.catch_warnings():  # a column pandas cannot infer one format for is read stamp by stamp below
@@ -71,7 +71,9 @@ def _day_first(text: pd.Series) -> pd.Series:
         stamps = pd.to_datetime(text, errors="coerce", dayfirst=True)
     if stamps.notna().all():
         return stamps
-    return pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True)
+    # year-first stamps among them are ISO ones (read day-first, 2026-03-06 would be the 3rd of June)
+    iso = pd.to_datetime(text, errors="coerce", format="ISO8601")
+    return iso.fillna(pd.to_datetime(text, errors="coerce", format="mixed", dayfirst=True))
 
 
 def elapsed_hours(values: pd.Series, origin: str | None = None) -> np.ndarray | None:
