@@ -62,7 +62,7 @@ def parse_timestamps(values: pd.Series) -> pd.Series | None:
 
 def _day_first(text: pd.Series, iso: pd.Series) -> pd.Series:
     """Day-first stamps: in the one format pandas infers from the first stamp, read at once, where every stamp
-    has it (an Excel export's 04.03.2026 06:00:00: 50 times faster than reading each stamp on its own);
+    has it (an Excel export's 04.03.2026 06:00:00: 13 times faster than each stamp on its own on 70,000);
     otherwise each stamp in its own format, those ``iso`` read as ISO as such."""
     import warnings
 
