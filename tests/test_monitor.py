@@ -346,9 +346,24 @@ def test_a_shift_over_the_levels_is_dated_at_its_likeliest_start_not_at_the_char
 
 
 def test_limits_set_on_a_short_log_are_called_a_hint(regime_predictor, parts):
-    watched = watch.watch(regime_predictor, parts, explain=False)
-    assert watched.log_parts is None and not words.short_log(watched)  # models that did not store it: no caution
-    for log_parts, cautioned in ((400, True), (words.SHORT_LOG, False)):
-        watched.log_parts = log_parts
+    assert not words.short_log(watch.watch(regime_predictor, parts, explain=False))  # no log length stored
+    stored = Predictor.load(MODELS)
+    for log_rows, cautioned in ((400, True), (words.SHORT_LOG, False)):
+        stored.spec["monitor"] = {**regime_predictor.spec["monitor"], "log_rows": log_rows}
+        watched = watch.watch(stored, parts, explain=False)
         assert ("a log of 400 parts" in words.summary(watched)) == cautioned
         assert ("a log of 400 parts" in words.markdown(watched, "batch.csv")) == cautioned
+
+
+def test_a_shift_over_the_levels_is_dated_where_it_began_when_levels_drifted_the_same_way_before():
+    group = np.arange(6000) // 100  # regimes of 100 parts
+    level = np.zeros(60)
+    level[22:30] = 0.8  # in control, by chance above the mean for eight regimes
+    level[30:] = 3.0  # the change, from part 3,000 on
+    rng = np.random.default_rng(9)
+    residual = level[group] + rng.normal(0, 0.3, 6000)
+    constants = chart.Constants({}, 0.3, 0.3, 0.5, 1e9, 8.0)  # only the chart over the levels can alarm
+    result = chart.regime_chart(residual, residual, np.full(6000, "r"), group, constants)
+    last_zero = chart.cusum(chart.level_steps(residual, group, constants), chart.LEVEL_REFERENCE, 8.0).start_at
+    assert result.alarmed_by == chart.LEVEL and group[last_zero] < 30  # the excursion began before the change
+    assert result.start_at == 3000

@@ -582,6 +582,8 @@ def test_monitor_key_adds_its_rule_and_a_report_page_and_its_table_is_the_comman
     assert result.returncode == 0, result.stderr
     assert (workdir / "results/monitor/monitor.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
     assert (workdir / "results/monitor/monitor.md").read_text() == (tmp_path / "monitor.md").read_text()
+    log_rows = len(pd.read_csv(run_dir / "results/demo/production.csv"))  # the test plant's log: a short one
+    assert f"a log of {log_rows:,} parts" in (tmp_path / "monitor.md").read_text()
 
 
 def test_results_dir_puts_everything_a_run_writes_under_it(tmp_path):

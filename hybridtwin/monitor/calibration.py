@@ -146,4 +146,5 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
         "slopes": slopes(log, causes, residual, z, group),
         "limit": chart.LIMIT,
         "log_parts": int(usable.sum()),
+        "log_rows": len(log),
     }

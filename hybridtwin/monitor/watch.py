@@ -116,7 +116,7 @@ class Watched:
     change: Change | None
     target: str
     unit: str
-    log_parts: int | None = None  # the log's judged parts the charts' limits were set on (None: not stored)
+    log_rows: int | None = None  # the production log's parts the charts' limits were set on (None: not stored)
 
     @property
     def judged(self) -> np.ndarray:
@@ -164,5 +164,5 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     change = None
     if explain and result.alarm_at is not None:
         change = what_changed(table, residual, result, predictor, seed, COLUMNS)
-    log_parts = predictor.spec.get("monitor", {}).get("log_parts")
-    return Watched(table, result, change, target, predictor.spec["unit"], log_parts)
+    log_rows = predictor.spec.get("monitor", {}).get("log_rows")
+    return Watched(table, result, change, target, predictor.spec["unit"], log_rows)

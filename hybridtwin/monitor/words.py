@@ -42,17 +42,19 @@ def unjudged(watched) -> str:
     )
 
 
-# below this many judged log parts the limits over the regimes' levels are set on too few campaigns and coils: on
-# the monitor bank's plants (docs/benchmarks.md, "Monitor"), logs of 8,000 and 20,000 parts gave false alarms on
-# 8 and 6 of 21 in-control batches, logs of 30,000 on 0 and 1 of 21 (two seeds)
+# below this many parts in the production log the limits over the regimes' levels rest on too few campaigns and
+# coils: on the monitor bank's plants (families generator; docs/benchmarks.md, "Monitor"), logs of 8,000 and
+# 20,000 parts gave false alarms on 8 and 6 of 21 in-control batches, logs of 30,000 on 0 and 1 of 21 (two seeds)
 SHORT_LOG = 30_000
 
 
 def short_log(watched) -> str:
-    if watched.log_parts is None or watched.log_parts >= SHORT_LOG:
+    """The caution for limits set on a log shorter than SHORT_LOG parts ('' for a longer one, or models that did
+    not store its length)."""
+    if watched.log_rows is None or watched.log_rows >= SHORT_LOG:
         return ""
     return (
-        f"the limits were set on a log of {watched.log_parts:,} parts, too few campaigns and coils to know how far "
+        f"the limits were set on a log of {watched.log_rows:,} parts, too few campaigns and coils to know how far "
         f"the plant's own level wanders (logs under {SHORT_LOG:,} parts raised false alarms on test plants): "
         "take an alarm over the regimes' levels as a hint, and append production to the log and rerun"
     )
