@@ -14,7 +14,7 @@ from hybridtwin.crossval import (
 )
 from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
 from hybridtwin.diagnosis import fits as fitting
-from hybridtwin.diagnosis.causes import Cause, parse_timestamps
+from hybridtwin.diagnosis.causes import Cause, looks_like_timestamps, parse_timestamps
 from tests.test_diagnosis_rules import coil_plant, material_coils, warming_die
 
 
@@ -569,3 +569,4 @@ def test_day_first_stamps_read_in_one_format_as_each_on_its_own_and_a_mixed_colu
     expected = ("2026-03-04 06:00", "2026-03-05 07:30", "2026-03-13", "2026-03-06 08:00")  # no one format fits all
     assert parse_timestamps(mixed).tolist() == [pd.Timestamp(t) for t in expected]
     assert parse_timestamps(pd.Series(["C-001", "C-002", "C-003"])) is None
+    assert looks_like_timestamps(stamps) and not looks_like_timestamps(pd.Series(["130480", "130481"]))  # a counter

@@ -48,8 +48,12 @@ MAX_UNPARSED_STAMPS = 0.01  # a text column is read as timestamps when at most t
 
 
 def looks_like_timestamps(values: pd.Series) -> bool:
-    """A text column whose first 200 values read as timestamps (a quick look before parsing a whole log)."""
-    return not pd.api.types.is_numeric_dtype(values) and parse_timestamps(values.iloc[:200]) is not None
+    """A text column whose first 200 values read as timestamps (a quick look before parsing a whole log); text
+    that reads as numbers is numbers (a stroke counter 130480 read as text would parse as dates, one by one)."""
+    if pd.api.types.is_numeric_dtype(values):
+        return False
+    head = values.iloc[:200]
+    return not pd.to_numeric(head, errors="coerce").notna().all() and parse_timestamps(head) is not None
 
 
 def parse_timestamps(values: pd.Series) -> pd.Series | None:
