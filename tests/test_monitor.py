@@ -367,3 +367,19 @@ def test_a_shift_over_the_levels_is_dated_where_it_began_when_levels_drifted_the
     last_zero = chart.cusum(chart.level_steps(residual, group, constants), chart.LEVEL_REFERENCE, 8.0).start_at
     assert result.alarmed_by == chart.LEVEL and group[last_zero] < 30  # the excursion began before the change
     assert result.start_at == 3000
+
+
+def test_a_setting_whose_new_level_the_shift_outlasts_is_not_named_and_one_it_follows_is(predictor):
+    from hybridtwin.monitor.changes import _named
+
+    rng = np.random.default_rng(11)
+    level = np.r_[np.full(1000, 0.45), np.full(1200, 0.55), np.full(1800, 0.45)]  # a campaign of 1,200 parts
+    frame = pd.DataFrame({"shim": level + rng.normal(0, 0.004, 4000)})
+    judged, noise = np.ones(4000, bool), rng.normal(0, 1.0, 4000)
+    stays = noise + 3.0 * (np.arange(4000) >= 1000)  # the shift stays after the campaign: time, not the shim
+    regime = (stays, judged, np.zeros(4000), 1.0)  # the regime charts: a new level must last 1,000 parts
+    kind, column, _ = _named([], frame, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
+    assert (kind, column) == (UNEXPLAINED, None)
+    follows = noise + 3.0 * (level > 0.5)  # the shift ends with the campaign: the shim
+    kind, column, _ = _named([], frame, 1000, predictor, 3.0, "mm", regime=regime, shifted=(follows, judged))
+    assert (kind, column) == (NEW, "shim")

@@ -30,6 +30,7 @@ BOUNDARY = 10  # parts from the start a new coil must begin at to be named with 
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
 KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
+STAYS = 0.5  # a shift that keeps this share of itself where a stepped setting left its new level is not that setting's
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
 LEAST_CELL = 10  # judged parts (a tenth of them, thrice) that tell a slope
 MOVED_T = 5.0  # a known cause moved: its slope inside the regimes changed by this many standard errors
@@ -207,6 +208,7 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     after, before = judged & (np.arange(len(residual)) >= start), judged & (np.arange(len(residual)) < start)
     reference = float(residual[before].mean()) if before.sum() >= MIN_BEFORE else 0.0
     shift = float(residual[after].mean()) - reference
+    shifted = (residual - reference, judged)
     unit, target = predictor.spec["unit"], predictor.spec["target"]
     frame = _diagnosis_frame(table, added, target)
     rows = np.flatnonzero(judged & (np.arange(len(residual)) >= start - (WINDOW if before.any() else 0)))
@@ -219,9 +221,9 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     moved_known, regime = None, None
     if getattr(result, "group", None) is not None:  # the regime charts
         regime = (residual, judged, result.group, result.scale)
-        reference = predictor.spec.get("monitor", {}).get("slopes", {})
-        moved_known = moved_cause(frame, residual, judged, result.group, start, reference, result.scale)
-    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap, moved_known, regime)
+        slopes = predictor.spec.get("monitor", {}).get("slopes", {})
+        moved_known = moved_cause(frame, residual, judged, result.group, start, slopes, result.scale)
+    kind, column, text = _named(found, frame, start, predictor, shift, unit, gap, moved_known, regime, shifted)
     proposed = {}
     # the change comes with settings outside the support: more of the parts since the start lie there than before
     if outside > 0.5 and outside - (float(np.mean(not_validated[:start])) if start >= MIN_BEFORE else 0.0) > 0.25:
@@ -229,9 +231,13 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     return Change(kind, text, column, proposed=proposed, **common)
 
 
-def _named(found: list, frame, start: int, predictor, shift: float, unit: str, gap=0, known_moved=None, regime=None):
+def _named(
+    found: list, frame, start: int, predictor, shift: float, unit: str, gap=0, known_moved=None, regime=None, shifted=None
+):
     """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
-    not judged (the change began during them: no setting or coil can be dated to the start).
+    not judged (the change began during them: no setting or coil can be dated to the start); ``shifted``: (the
+    residual less its level before the start, the judged parts), to drop a setting that stepped where the change
+    began but whose new level the shift outlasts (:func:`outlasted`).
 
     With the regime charts, ``known_moved``: a known cause whose slope changed (:func:`moved_cause`); ``regime``:
     (residual, judged, group, scale). The settled levels of the regimes are the models' own error, which a coil id
@@ -254,9 +260,11 @@ def _named(found: list, frame, start: int, predictor, shift: float, unit: str, g
     # a step where the change began: at the start, or where the parts not judged right before it began (a setting
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
-    steps = {}
+    steps, kept = {}, KEPT if regime is not None else WINDOW
     if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
-        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
+        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, kept)
+    if shifted is not None:
+        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift, kept)}
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -312,6 +320,20 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
             if step is not None:
                 steps[column] = step
     return steps
+
+
+def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float, kept: int) -> bool:
+    """Whether the shift stays on the parts after the step at which the setting left its new level again (a
+    campaign that ended): there the setting cannot explain it, time does. ``shifted``: the residual less its level
+    before the start; the new level is the setting's range over the ``kept`` parts from its step. Too few parts
+    that left it: False (a setting that keeps its new level cannot be told from time)."""
+    at = step[0]
+    x = values.to_numpy(float)
+    low, high = np.quantile(x[at : at + kept], [0.005, 0.995])
+    left = judged & ((x < low) | (x > high)) & (np.arange(len(x)) > at)
+    if left.sum() < MIN_BEFORE or shift == 0:
+        return False
+    return float(np.mean(shifted[left])) / shift > STAYS
 
 
 def _step_text(name: str, step: tuple[int, float, float]) -> str:
