@@ -383,3 +383,6 @@ def test_a_setting_whose_new_level_the_shift_outlasts_is_not_named_and_one_it_fo
     follows = noise + 3.0 * (level > 0.5)  # the shift ends with the campaign: the shim
     kind, column, _ = _named([], frame, 1000, predictor, 3.0, "mm", regime=regime, shifted=(follows, judged))
     assert (kind, column) == (NEW, "shim")
+    kept = frame.assign(shim=np.where(np.arange(4000) >= 1000, 0.55, 0.45) + rng.normal(0, 0.004, 4000))
+    kind, column, _ = _named([], kept, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
+    assert (kind, column) == (NEW, "shim")  # re-shimmed for good: the shim is the lead, though time fits as well

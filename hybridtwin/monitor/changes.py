@@ -260,11 +260,11 @@ def _named(
     # a step where the change began: at the start, or where the parts not judged right before it began (a setting
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
-    steps, kept = {}, KEPT if regime is not None else WINDOW
+    steps = {}
     if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
-        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, kept)
+        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
     if shifted is not None:
-        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift, kept)}
+        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift)}
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -322,15 +322,14 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
     return steps
 
 
-def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float, kept: int) -> bool:
+def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float) -> bool:
     """Whether the shift stays on the parts after the step at which the setting left its new level again (a
-    campaign that ended): there the setting cannot explain it, time does. ``shifted``: the residual less its level
-    before the start; the new level is the setting's range over the ``kept`` parts from its step. Too few parts
-    that left it: False (a setting that keeps its new level cannot be told from time)."""
-    at = step[0]
+    campaign that ended: more than half the step away from it): there the setting cannot explain it, time does.
+    ``shifted``: the residual less its level before the start. Too few parts that left it: False (a setting that
+    keeps its new level cannot be told from time)."""
+    at, old, new = step
     x = values.to_numpy(float)
-    low, high = np.quantile(x[at : at + kept], [0.005, 0.995])
-    left = judged & ((x < low) | (x > high)) & (np.arange(len(x)) > at)
+    left = judged & (np.abs(x - new) > abs(new - old) / 2) & (np.arange(len(x)) > at)
     if left.sum() < MIN_BEFORE or shift == 0:
         return False
     return float(np.mean(shifted[left])) / shift > STAYS
