@@ -232,7 +232,16 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
 
 
 def _named(
-    found: list, frame, start: int, predictor, shift: float, unit: str, gap=0, known_moved=None, regime=None, shifted=None
+    found: list,
+    frame,
+    start: int,
+    predictor,
+    shift: float,
+    unit: str,
+    gap=0,
+    known_moved=None,
+    regime=None,
+    shifted=None,
 ):
     """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
     not judged (the change began during them: no setting or coil can be dated to the start); ``shifted``: (the
