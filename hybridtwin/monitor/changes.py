@@ -231,18 +231,7 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     return Change(kind, text, column, proposed=proposed, **common)
 
 
-def _named(
-    found: list,
-    frame,
-    start: int,
-    predictor,
-    shift: float,
-    unit: str,
-    gap=0,
-    known_moved=None,
-    regime=None,
-    shifted=None,
-):
+def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None, regime=None, shifted=None):
     """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
     not judged (the change began during them: no setting or coil can be dated to the start); ``shifted``: (the
     residual less its level before the start, the judged parts), to drop a setting that stepped where the change
