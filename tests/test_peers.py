@@ -170,6 +170,26 @@ def test_cokriging_keeps_the_search_whose_model_predicts_unseen_periods_best(cas
     assert single.hyperparameters_ == model.searched_[0]  # the first search is the single search's
 
 
+def test_gp_discrepancy_keeps_the_draw_whose_gp_predicts_unseen_periods_best(case):
+    """One draw of hyperparameter parts sets an optimum that varies with the draw: each draw's GP (refitted on every
+    training part) is judged by the RMSE of its predictions of each period by a refit without it."""
+    residual = case["y_parts"] - simulator(case["parts"].to_numpy())
+    model = GPDiscrepancy(n_hyper=60, n_fit=300, n_draws=3).fit(case["parts"], residual)
+    assert len(model.draw_errors_) == 3 and len({round(error, 9) for error in model.draw_errors_}) == 3
+    y = residual[model.training_rows_]
+    state = model.gp_.to_dict()
+    held_out = model._period_predictions(state, 5)
+    assert _rmse(held_out, y) == pytest.approx(min(model.draw_errors_), rel=1e-9)  # the best draw is kept
+    assert np.allclose(model.out_of_fold(5), held_out)  # its out-of-period values are its out-of-fold ones
+    assert np.allclose(model.out_of_fold(4), model._period_predictions(state, 4))  # other periods: refitted
+    assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
+    single = GPDiscrepancy(n_hyper=60, n_fit=300, n_draws=1).fit(case["parts"], residual)
+    seeded = [model.training_rows_[crossval.training_subset(300, 60, seed)] for seed in (0, 101, 102)]
+    thetas = [single._searched(case["parts"].to_numpy(), residual, rows).gpr_.kernel_.theta.tolist() for rows in seeded]
+    assert thetas[0] == single.gp_.gpr_.kernel_.theta.tolist()  # the first draw is the single draw's
+    assert model.gp_.gpr_.kernel_.theta.tolist() == thetas[int(np.argmin(model.draw_errors_))]
+
+
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():
     rng = np.random.default_rng(3)
     n = 4000

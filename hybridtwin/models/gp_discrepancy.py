@@ -17,8 +17,12 @@ from sklearn.utils.validation import check_is_fitted
 
 from hybridtwin.crossval import period_folds, training_subset
 from hybridtwin.models.batches import batched
+from hybridtwin.models.cokriging import SEARCH_FOLDS
 from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
 from hybridtwin.paper.surrogate import GPRSurrogate
+
+
+DRAW_SEEDS = 100  # the k-th extra draw of hyperparameter rows is seeded random_state + DRAW_SEEDS + k
 
 
 class GPDiscrepancy(RegressorMixin, BaseEstimator):
@@ -29,10 +33,13 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
 
     surrogate_class = GPRSurrogate
 
-    def __init__(self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, random_state: int = 0):
+    def __init__(
+        self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, n_draws: int = 3, random_state: int = 0
+    ):
         self.n_hyper = n_hyper
         self.n_fit = n_fit
         self.n_restarts = n_restarts
+        self.n_draws = n_draws
         self.random_state = random_state
 
     def fit(self, X, y, X_low=None, y_low=None):
@@ -41,25 +48,38 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         matrix = np.asarray(X, float)
         y = np.asarray(y, float)
         self.n_features_in_ = matrix.shape[1]
-        self.training_rows_ = training_subset(len(y), self.n_fit, self.random_state + 1)
-        # the hyperparameters from a seeded part of the same rows: every row the GP learnt from is a training row,
-        # and so has an out-of-fold prediction
-        self.hyper_rows_ = self.training_rows_[
-            training_subset(len(self.training_rows_), self.n_hyper, self.random_state)
-        ]
+        self.training_rows_ = rows = training_subset(len(y), self.n_fit, self.random_state + 1)
+        # the hyperparameters from seeded parts of the same rows: every row the GP learnt from is a training row,
+        # and so has an out-of-fold prediction; several draws where the rows allow (all rows: one)
+        n_draws = self.n_draws if len(rows) > self.n_hyper else 1
+        seeds = [self.random_state] + [self.random_state + DRAW_SEEDS + k for k in range(1, n_draws)]
+        draws = [rows[training_subset(len(rows), self.n_hyper, seed)] for seed in seeds]
+        found = [self._searched(matrix, y, draw) for draw in draws]
+        # one draw's optimum varies with the draw: the draws' GPs are judged on periods of the rows they did not see
+        held_out = [self._period_predictions(gp.to_dict(), SEARCH_FOLDS) for gp in found] if n_draws > 1 else []
+        self.draw_errors_ = [float(np.sqrt(np.mean((p - y[rows]) ** 2))) for p in held_out] or [0.0]
+        best = int(np.argmin(self.draw_errors_))
+        self.gp_, self.hyper_rows_ = found[best], draws[best]
+        # the chosen draw's out-of-period predictions, kept: out_of_fold on the same periods would refit them
+        self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
+        return self
+
+    def _searched(self, matrix: np.ndarray, y: np.ndarray, draw: np.ndarray) -> GPRSurrogate:
+        """The GP on every training row with the hyperparameters its likelihood search finds on ``draw``."""
         # the residual is mostly noise: the likelihood search starts there (normalized units: all of it)
         hyper = self.surrogate_class(n_restarts=self.n_restarts, random_state=self.random_state, noise_start=1.0)
-        hyper.fit(matrix[self.hyper_rows_], y[self.hyper_rows_])
-        self.gp_ = self._with_rows(
-            hyper.to_dict(), hyper.standardizer_.transform(matrix[self.training_rows_]), y[self.training_rows_]
-        )
-        return self
+        hyper.fit(matrix[draw], y[draw])
+        rows = self.training_rows_
+        return self._with_rows(hyper.to_dict(), hyper.standardizer_.transform(matrix[rows]), y[rows])
 
     def out_of_fold(self, n_folds: int) -> np.ndarray:
         """Per training row (in ``training_rows_`` order, which is time order): the GP, its hyperparameters
         fixed, refitted without that row's period (``n_folds`` folds of consecutive training rows)."""
         check_is_fitted(self, "gp_")
-        state = self.gp_.to_dict()
+        kept = getattr(self, "period_predictions_", {}).get(n_folds)
+        return kept.copy() if kept is not None else self._period_predictions(self.gp_.to_dict(), n_folds)
+
+    def _period_predictions(self, state: dict, n_folds: int) -> np.ndarray:
         Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
         out = np.empty(len(y))
         for train, test in period_folds(len(y), n_folds):

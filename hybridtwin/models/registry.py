@@ -95,7 +95,7 @@ GP_DISCREPANCY = Model(
     peer=True,
     predicts="residual",
     estimator="hybridtwin.models.gp_discrepancy:GPDiscrepancy",
-    settings=(("gp_n_hyper", "n_hyper"), ("gp_n_fit", "n_fit")),
+    settings=(("gp_n_hyper", "n_hyper"), ("gp_n_fit", "n_fit"), ("gp_n_draws", "n_draws")),
 )
 COKRIGING = Model(
     "cokriging",

@@ -1,0 +1,128 @@
+"""Benchmark: how much the GP discrepancy's answer depends on its draw of hyperparameter parts (issue 33).
+
+On each plant of the families generator (one draw per family), the in-memory steps (:mod:`hybridtwin.demo.harness`)
+give the gate, the surrogate and the approximate residuals once; then the GP discrepancy is fitted with three model
+seeds (each another draw of its ``gp_n_hyper`` hyperparameter parts, and of its ``gp_n_fit`` training parts), with
+one draw (``gp_n_draws: 1``, the method before) and with the configured draws (``gp_n_draws``), beside the plain
+scikit-learn use (``benchmarks/plain_baselines.py``). Each is scored against the noise-free truth on the test blocks
+(the odd blocks of consecutive parts), in and out of the support, as truth-RMSE over the noise. Usage:
+
+    python benchmarks/gp_discrepancy_draws.py --seed 23      # a few minutes a plant on 2 cores, alone
+
+Writes benchmarks/results/gp_discrepancy_draws_seed<N>.md and .csv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import pandas as pd
+from gp_discrepancy_start import honest, score
+from plain_baselines import PLAIN_GP, plain_baselines
+
+from hybridtwin.demo import families, harness
+from hybridtwin.io.config import section_defaults
+from hybridtwin.models.gp_discrepancy import GPDiscrepancy
+
+OUT = Path(__file__).resolve().parent / "results"
+MODEL_SEEDS = (0, 1, 2)
+
+
+def plant_rows(family: str, seed: int) -> list[dict]:
+    case = families.draw_plant(family, seed)
+    run = harness.Run.of(case, 0)
+    sizes = section_defaults("peers")
+    n_hyper, n_fit, n_draws = sizes["gp_n_hyper"], sizes["gp_n_fit"], sizes["gp_n_draws"]
+    test = ~run.choosing
+    regions = {"in support": run.inside & test, "out of support": ~run.inside & test}
+    plain = plain_baselines(case.doe, case.production, run.residuals, case.inputs, case.target, 0)[PLAIN_GP]
+    predictions = {("plain", 0): plain}
+    for model_seed in MODEL_SEEDS:
+        for draws in (1, n_draws):
+            model = GPDiscrepancy(n_hyper=n_hyper, n_fit=n_fit, n_draws=draws, random_state=model_seed)
+            predictions[(f"{draws} draw" + ("s" if draws > 1 else ""), model_seed)] = honest(model, run, case)
+    return [
+        {
+            "plant": f"{family} seed {seed}",
+            "model": name,
+            "model_seed": model_seed,
+            "region": region,
+            "truth_rmse_over_noise": score(p, case.truth, case.noise, rows),
+        }
+        for (name, model_seed), p in predictions.items()
+        for region, rows in regions.items()
+    ]
+
+
+def summary(table: pd.DataFrame) -> list[str]:
+    lines = [
+        "| region | plant | plain | "
+        + " | ".join(f"{name}: seeds {', '.join(map(str, MODEL_SEEDS))} (worst / best)" for name in _variants(table))
+        + " |"
+    ]
+    lines += ["|---|---|---:|" + "---|" * len(_variants(table))]
+    spread = {}
+    for (region, plant), part in table.groupby(["region", "plant"]):
+        values = part.set_index(["model", "model_seed"])["truth_rmse_over_noise"]
+        cells = []
+        for name in _variants(table):
+            scores = values[name]
+            spread.setdefault((region, name), []).append(
+                {
+                    "spread": scores.max() / scores.min(),
+                    "median_over_plain": scores.median() / values[("plain", 0)],
+                    "worst_over_plain": scores.max() / values[("plain", 0)],
+                }
+            )
+            cells.append(", ".join(f"{v:.3f}" for v in scores) + f" ({scores.max() / scores.min():.2f})")
+        lines.append(f"| {region} | {plant} | {values[('plain', 0)]:.3f} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "| region | variant | median worst / best over the seeds | largest | median of (seeds' median / plain) "
+        "| worst seed / plain, worst plant |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for (region, name), rows in spread.items():
+        frame = pd.DataFrame(rows)
+        lines.append(
+            f"| {region} | {name} | {frame['spread'].median():.2f} | {frame['spread'].max():.2f} | "
+            f"{frame['median_over_plain'].median():.2f} | {frame['worst_over_plain'].max():.2f} |"
+        )
+    return lines
+
+
+def _variants(table: pd.DataFrame) -> list[str]:
+    return [name for name in dict.fromkeys(table["model"]) if name != "plain"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seed", type=int, default=23)
+    parser.add_argument("--families", nargs="+", default=list(families.FAMILIES))
+    args = parser.parse_args()
+    rows = []
+    for family in args.families:
+        start = time.perf_counter()
+        rows += plant_rows(family, args.seed)
+        print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
+    table = pd.DataFrame(rows)
+    stem = OUT / f"gp_discrepancy_draws_seed{args.seed}"
+    table.to_csv(stem.with_suffix(".csv"), index=False)
+    command = f"python benchmarks/gp_discrepancy_draws.py --seed {args.seed} --families {' '.join(args.families)}"
+    text = [
+        f"# The GP discrepancy: one draw of hyperparameter parts or several (`{command}`)",
+        "",
+        "Truth-RMSE over the noise on the test blocks (odd blocks of consecutive parts), one plant per family; "
+        "per variant the three model seeds' scores and the worst over the best.",
+        "",
+        *summary(table),
+        "",
+    ]
+    stem.with_suffix(".md").write_text("\n".join(text))
+    print("\n".join(text))
+
+
+if __name__ == "__main__":
+    main()
