@@ -30,7 +30,8 @@ OUT = Path(__file__).resolve().parent / "results"
 MODEL_SEEDS = (0, 1, 2)
 
 
-def plant_rows(family: str, seed: int) -> list[dict]:
+def plant_rows(family: str, seed: int, draw_parts: int | None = None) -> list[dict]:
+    """``draw_parts``: the parts of each of the several draws (default ``gp_n_hyper``, as the single draw's)."""
     case = families.draw_plant(family, seed)
     run = harness.Run.of(case, 0)
     sizes = section_defaults("peers")
@@ -40,9 +41,10 @@ def plant_rows(family: str, seed: int) -> list[dict]:
     plain = plain_baselines(case.doe, case.production, run.residuals, case.inputs, case.target, 0)[PLAIN_GP]
     predictions = {("plain", 0): plain}
     for model_seed in MODEL_SEEDS:
-        for draws in (1, n_draws):
-            model = GPDiscrepancy(n_hyper=n_hyper, n_fit=n_fit, n_draws=draws, random_state=model_seed)
-            predictions[(f"{draws} draw" + ("s" if draws > 1 else ""), model_seed)] = honest(model, run, case)
+        for draws, parts in ((1, n_hyper), (n_draws, draw_parts or n_hyper)):
+            model = GPDiscrepancy(n_hyper=parts, n_fit=n_fit, n_draws=draws, random_state=model_seed)
+            name = "1 draw" if draws == 1 else f"{draws} draws" + (f" of {parts}" if parts != n_hyper else "")
+            predictions[(name, model_seed)] = honest(model, run, case)
     return [
         {
             "plant": f"{family} seed {seed}",
@@ -101,16 +103,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=23)
     parser.add_argument("--families", nargs="+", default=list(families.FAMILIES))
+    parser.add_argument("--draw-parts", type=int, help="parts of each of the several draws (default gp_n_hyper)")
     args = parser.parse_args()
     rows = []
     for family in args.families:
         start = time.perf_counter()
-        rows += plant_rows(family, args.seed)
+        rows += plant_rows(family, args.seed, args.draw_parts)
         print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
     table = pd.DataFrame(rows)
-    stem = OUT / f"gp_discrepancy_draws_seed{args.seed}"
+    stem = OUT / (f"gp_discrepancy_draws_seed{args.seed}" + (f"_of{args.draw_parts}" if args.draw_parts else ""))
     table.to_csv(stem.with_suffix(".csv"), index=False)
     command = f"python benchmarks/gp_discrepancy_draws.py --seed {args.seed} --families {' '.join(args.families)}"
+    command += f" --draw-parts {args.draw_parts}" if args.draw_parts else ""
     text = [
         f"# The GP discrepancy: one draw of hyperparameter parts or several (`{command}`)",
         "",

@@ -34,7 +34,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
     surrogate_class = GPRSurrogate
 
     def __init__(
-        self, n_hyper: int = 500, n_fit: int = 2000, n_restarts: int = 0, n_draws: int = 3, random_state: int = 0
+        self, n_hyper: int = 300, n_fit: int = 2000, n_restarts: int = 0, n_draws: int = 3, random_state: int = 0
     ):
         self.n_hyper = n_hyper
         self.n_fit = n_fit
