@@ -3,13 +3,14 @@
 On each plant of the families generator (one draw per family), the in-memory steps (:mod:`hybridtwin.demo.harness`)
 give the gate, the surrogate and the approximate residuals once; then the GP discrepancy is fitted with three model
 seeds (each another draw of its ``gp_n_hyper`` hyperparameter parts, and of its ``gp_n_fit`` training parts), with
-one draw (``gp_n_draws: 1``, the method before) and with the configured draws (``gp_n_draws``), beside the plain
+one draw of 500 parts (the method before) and with ``gp_n_draws`` draws of ``--draw-parts`` parts (default
+``gp_n_hyper``), beside the plain
 scikit-learn use (``benchmarks/plain_baselines.py``). Each is scored against the noise-free truth on the test blocks
 (the odd blocks of consecutive parts), in and out of the support, as truth-RMSE over the noise. Usage:
 
     python benchmarks/gp_discrepancy_draws.py --seed 23      # a few minutes a plant on 2 cores, alone
 
-Writes benchmarks/results/gp_discrepancy_draws_seed<N>.md and .csv.
+Writes benchmarks/results/gp_discrepancy_draws_seed<N>_of<parts>.md and .csv.
 """
 
 from __future__ import annotations
@@ -28,22 +29,24 @@ from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 
 OUT = Path(__file__).resolve().parent / "results"
 MODEL_SEEDS = (0, 1, 2)
+ONE_DRAW_PARTS = 500  # the single draw's parts before there were several draws
 
 
-def plant_rows(family: str, seed: int, draw_parts: int | None = None) -> list[dict]:
-    """``draw_parts``: the parts of each of the several draws (default ``gp_n_hyper``, as the single draw's)."""
+def plant_rows(family: str, seed: int, draw_parts: int) -> list[dict]:
+    """``draw_parts``: the parts of each of the several draws; the single draw has ONE_DRAW_PARTS (the method
+    before)."""
     case = families.draw_plant(family, seed)
     run = harness.Run.of(case, 0)
     sizes = section_defaults("peers")
-    n_hyper, n_fit, n_draws = sizes["gp_n_hyper"], sizes["gp_n_fit"], sizes["gp_n_draws"]
+    n_fit, n_draws = sizes["gp_n_fit"], sizes["gp_n_draws"]
     test = ~run.choosing
     regions = {"in support": run.inside & test, "out of support": ~run.inside & test}
     plain = plain_baselines(case.doe, case.production, run.residuals, case.inputs, case.target, 0)[PLAIN_GP]
     predictions = {("plain", 0): plain}
     for model_seed in MODEL_SEEDS:
-        for draws, parts in ((1, n_hyper), (n_draws, draw_parts or n_hyper)):
+        for draws, parts in ((1, ONE_DRAW_PARTS), (n_draws, draw_parts)):
             model = GPDiscrepancy(n_hyper=parts, n_fit=n_fit, n_draws=draws, random_state=model_seed)
-            name = "1 draw" if draws == 1 else f"{draws} draws" + (f" of {parts}" if parts != n_hyper else "")
+            name = "1 draw" if draws == 1 else f"{draws} draws of {parts}"
             predictions[(name, model_seed)] = honest(model, run, case)
     return [
         {
@@ -105,16 +108,17 @@ def main() -> None:
     parser.add_argument("--families", nargs="+", default=list(families.FAMILIES))
     parser.add_argument("--draw-parts", type=int, help="parts of each of the several draws (default gp_n_hyper)")
     args = parser.parse_args()
+    args.draw_parts = args.draw_parts or section_defaults("peers")["gp_n_hyper"]
     rows = []
     for family in args.families:
         start = time.perf_counter()
         rows += plant_rows(family, args.seed, args.draw_parts)
         print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
     table = pd.DataFrame(rows)
-    stem = OUT / (f"gp_discrepancy_draws_seed{args.seed}" + (f"_of{args.draw_parts}" if args.draw_parts else ""))
+    stem = OUT / f"gp_discrepancy_draws_seed{args.seed}_of{args.draw_parts}"
     table.to_csv(stem.with_suffix(".csv"), index=False)
     command = f"python benchmarks/gp_discrepancy_draws.py --seed {args.seed} --families {' '.join(args.families)}"
-    command += f" --draw-parts {args.draw_parts}" if args.draw_parts else ""
+    command += f" --draw-parts {args.draw_parts}"
     text = [
         f"# The GP discrepancy: one draw of hyperparameter parts or several (`{command}`)",
         "",
