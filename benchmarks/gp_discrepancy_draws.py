@@ -16,12 +16,12 @@ Writes benchmarks/results/gp_discrepancy_draws_seed<N>_of<parts>.md and .csv.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import pandas as pd
-from gp_discrepancy_start import honest, score
+from gp_discrepancy_start import TRUTH_RMSE, honest, per_family, score
 from plain_baselines import PLAIN_GP, plain_baselines
+from results_files import write_results
 
 from hybridtwin.demo import families, harness
 from hybridtwin.io.config import section_defaults
@@ -109,27 +109,11 @@ def main() -> None:
     parser.add_argument("--draw-parts", type=int, help="parts of each of the several draws (default gp_n_hyper)")
     args = parser.parse_args()
     args.draw_parts = args.draw_parts or section_defaults("peers")["gp_n_hyper"]
-    rows = []
-    for family in args.families:
-        start = time.perf_counter()
-        rows += plant_rows(family, args.seed, args.draw_parts)
-        print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
-    table = pd.DataFrame(rows)
-    stem = OUT / f"gp_discrepancy_draws_seed{args.seed}_of{args.draw_parts}"
-    table.to_csv(stem.with_suffix(".csv"), index=False)
-    command = f"python benchmarks/gp_discrepancy_draws.py --seed {args.seed} --families {' '.join(args.families)}"
-    command += f" --draw-parts {args.draw_parts}"
-    text = [
-        f"# The GP discrepancy: one draw of hyperparameter parts or several (`{command}`)",
-        "",
-        "Truth-RMSE over the noise on the test blocks (odd blocks of consecutive parts), one plant per family; "
-        "per variant the three model seeds' scores and the worst over the best.",
-        "",
-        *summary(table),
-        "",
-    ]
-    stem.with_suffix(".md").write_text("\n".join(text))
-    print("\n".join(text))
+    table = per_family(lambda family: plant_rows(family, args.seed, args.draw_parts), args.families)
+    text = "; per variant the three model seeds' scores and the worst over the best."
+    summary_text = "\n".join([TRUTH_RMSE + text, "", *summary(table)])
+    title = "The GP discrepancy: one draw of hyperparameter parts or several"
+    print(write_results(OUT, f"gp_discrepancy_draws_seed{args.seed}_of{args.draw_parts}", title, table, summary_text))
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from plain_baselines import PLAIN_GP, plain_baselines
+from results_files import write_results
 
 from hybridtwin.demo import families, harness
 from hybridtwin.io.config import section_defaults
@@ -34,6 +35,7 @@ from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 from hybridtwin.paper.surrogate import GPRSurrogate
 
 OUT = Path(__file__).resolve().parent / "results"
+TRUTH_RMSE = "Truth-RMSE over the noise on the test blocks (odd blocks of consecutive parts), one plant per family"
 
 
 class SmallNoiseStart(GPRSurrogate):
@@ -106,30 +108,25 @@ def summary(table: pd.DataFrame) -> list[str]:
     return lines
 
 
+def per_family(rows_of, names: list[str]) -> pd.DataFrame:
+    """The rows of each family's plant (``rows_of(family)``), each plant's time printed."""
+    rows = []
+    for family in names:
+        start = time.perf_counter()
+        rows += rows_of(family)
+        print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
+    return pd.DataFrame(rows)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=22)
     parser.add_argument("--families", nargs="+", default=list(families.FAMILIES))
     args = parser.parse_args()
-    rows = []
-    for family in args.families:
-        start = time.perf_counter()
-        rows += plant_rows(family, args.seed)
-        print(f"{family}: {time.perf_counter() - start:.0f} s", flush=True)
-    table = pd.DataFrame(rows)
-    stem = OUT / f"gp_discrepancy_start_seed{args.seed}"
-    table.to_csv(stem.with_suffix(".csv"), index=False)
-    command = f"python benchmarks/gp_discrepancy_start.py --seed {args.seed}"
-    text = [
-        f"# The GP discrepancy's likelihood search: where it starts (`{command}`)",
-        "",
-        "Truth-RMSE over the noise on the test blocks (odd blocks of consecutive parts), one plant per family.",
-        "",
-        *summary(table),
-        "",
-    ]
-    stem.with_suffix(".md").write_text("\n".join(text))
-    print("\n".join(text))
+    table = per_family(lambda family: plant_rows(family, args.seed), args.families)
+    summary_text = "\n".join([TRUTH_RMSE + ".", "", *summary(table)])
+    title = "The GP discrepancy's likelihood search: where it starts"
+    print(write_results(OUT, f"gp_discrepancy_start_seed{args.seed}", title, table, summary_text))
 
 
 if __name__ == "__main__":
