@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from gp_discrepancy_start import TRUTH_RMSE, honest, per_family, score
+from gp_discrepancy_start import ONE_DRAW_PARTS, TRUTH_RMSE, honest, per_family, score
 from plain_baselines import PLAIN_GP, plain_baselines
 from results_files import write_results
 
@@ -29,7 +29,6 @@ from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 
 OUT = Path(__file__).resolve().parent / "results"
 MODEL_SEEDS = (0, 1, 2)
-ONE_DRAW_PARTS = 500  # the single draw's parts before there were several draws
 
 
 def plant_rows(family: str, seed: int, draw_parts: int) -> list[dict]:

@@ -35,6 +35,7 @@ from hybridtwin.models.gp_discrepancy import GPDiscrepancy
 from hybridtwin.paper.surrogate import GPRSurrogate
 
 OUT = Path(__file__).resolve().parent / "results"
+ONE_DRAW_PARTS = 500  # the single draw's parts before there were several draws (gp_discrepancy_draws.py)
 TRUTH_RMSE = "Truth-RMSE over the noise on the test blocks (odd blocks of consecutive parts), one plant per family"
 
 
@@ -70,9 +71,9 @@ def score(prediction, truth, noise: float, rows) -> float:
 def plant_rows(family: str, seed: int) -> list[dict]:
     case = families.draw_plant(family, seed)
     run = harness.Run.of(case, 0)
-    sizes = section_defaults("peers")
-    n_hyper, n_fit = sizes["gp_n_hyper"], sizes["gp_n_fit"]
-    models = {"now": GPDiscrepancy(n_hyper=n_hyper, n_fit=n_fit), "before": Before(n_hyper=n_hyper, n_fit=n_fit)}
+    n_fit = section_defaults("peers")["gp_n_fit"]
+    one = {"n_hyper": ONE_DRAW_PARTS, "n_fit": n_fit, "n_draws": 1}  # the search as measured, before several draws
+    models = {"now": GPDiscrepancy(**one), "before": Before(**one)}
     predictions = {name: honest(model, run, case) for name, model in models.items()}
     predictions["plain"] = plain_baselines(case.doe, case.production, run.residuals, case.inputs, case.target, 0)[
         PLAIN_GP

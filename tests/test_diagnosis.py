@@ -570,3 +570,4 @@ def test_day_first_stamps_read_in_one_format_as_each_on_its_own_and_a_mixed_colu
     assert parse_timestamps(mixed).tolist() == [pd.Timestamp(t) for t in expected]
     assert parse_timestamps(pd.Series(["C-001", "C-002", "C-003"])) is None
     assert looks_like_timestamps(stamps) and not looks_like_timestamps(pd.Series(["130480", "130481"]))  # a counter
+    assert not looks_like_timestamps(pd.Series(["130480", "", "130482"]))  # with a blank cell

@@ -386,3 +386,8 @@ def test_a_setting_whose_new_level_the_shift_outlasts_is_not_named_and_one_it_fo
     kept = frame.assign(shim=np.where(np.arange(4000) >= 1000, 0.55, 0.45) + rng.normal(0, 0.004, 4000))
     kind, column, _ = _named([], kept, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
     assert (kind, column) == (NEW, "shim")  # re-shimmed for good: the shim is the lead, though time fits as well
+    further = np.r_[np.full(1000, 0.45), np.full(1200, 0.55), np.full(1800, 0.65)]  # on the same way, not back
+    onward = frame.assign(shim=further + rng.normal(0, 0.004, 4000))
+    shifted = (noise + 30.0 * (further - 0.45), judged)  # the residual follows the shim
+    kind, column, _ = _named([], onward, 1000, predictor, 3.0, "mm", regime=regime, shifted=shifted)
+    assert (kind, column) == (NEW, "shim")

@@ -188,6 +188,8 @@ def test_gp_discrepancy_keeps_the_draw_whose_gp_predicts_unseen_periods_best(cas
     thetas = [single._searched(case["parts"].to_numpy(), residual, rows).gpr_.kernel_.theta.tolist() for rows in seeded]
     assert thetas[0] == single.gp_.gpr_.kernel_.theta.tolist()  # the first draw is the single draw's
     assert model.gp_.gpr_.kernel_.theta.tolist() == thetas[int(np.argmin(model.draw_errors_))]
+    every = GPDiscrepancy(n_hyper=60, n_fit=60, n_draws=3).fit(case["parts"], residual)  # every row in each draw
+    assert every.draw_errors_ == [0.0] and not every.period_predictions_  # one search: the draws would be alike
 
 
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():

@@ -53,7 +53,9 @@ def looks_like_timestamps(values: pd.Series) -> bool:
     if pd.api.types.is_numeric_dtype(values):
         return False
     head = values.iloc[:200]
-    return not pd.to_numeric(head, errors="coerce").notna().all() and parse_timestamps(head) is not None
+    text = head.astype(str).str.strip()
+    numbers = pd.to_numeric(text[text != ""], errors="coerce")  # a blank cell does not make a counter a date
+    return not numbers.notna().all() and parse_timestamps(head) is not None
 
 
 def parse_timestamps(values: pd.Series) -> pd.Series | None:

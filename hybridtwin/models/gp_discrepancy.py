@@ -21,7 +21,6 @@ from hybridtwin.models.cokriging import SEARCH_FOLDS
 from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
 from hybridtwin.paper.surrogate import GPRSurrogate
 
-
 DRAW_SEEDS = 100  # the k-th extra draw of hyperparameter rows is seeded random_state + DRAW_SEEDS + k
 
 
@@ -60,7 +59,9 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         self.draw_errors_ = [float(np.sqrt(np.mean((p - y[rows]) ** 2))) for p in held_out] or [0.0]
         best = int(np.argmin(self.draw_errors_))
         self.gp_, self.hyper_rows_ = found[best], draws[best]
-        # the chosen draw's out-of-period predictions, kept: out_of_fold on the same periods would refit them
+        # the chosen draw's out-of-period predictions, kept: out_of_fold on the same periods would refit them. Its
+        # score on its own parts is then the best of n_draws and slightly optimistic (as co-kriging's); each draw's
+        # hyperparameter parts come from every period, so the periods are unseen by the refit, not by the search
         self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
         return self
 

@@ -321,13 +321,14 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
 
 
 def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float) -> bool:
-    """Whether the shift stays on the parts after the step at which the setting left its new level again (a
-    campaign that ended: more than half the step away from it): there the setting cannot explain it, time does.
-    ``shifted``: the residual less its level before the start. Too few parts that left it: False (a setting that
-    keeps its new level cannot be told from time)."""
+    """Whether the shift stays on the parts after the step at which the setting went back from its new level (a
+    campaign that ended: more than half the step back towards the old level): there the setting cannot explain it,
+    time does. ``shifted``: the residual less its level before the start. Too few parts that went back: False (a
+    setting that keeps its new level, or steps on the same way, cannot be told from time)."""
     at, old, new = step
     x = values.to_numpy(float)
-    left = judged & (np.abs(x - new) > abs(new - old) / 2) & (np.arange(len(x)) > at)
+    back = (x - new) * np.sign(new - old) < -abs(new - old) / 2
+    left = judged & back & (np.arange(len(x)) > at)
     if left.sum() < MIN_BEFORE or shift == 0:
         return False
     return float(np.mean(shifted[left])) / shift > STAYS
