@@ -1,6 +1,8 @@
 """The established peers on small constructed cases with a known smooth discrepancy."""
 
+import json
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -188,6 +190,9 @@ def test_gp_discrepancy_keeps_the_draw_whose_gp_predicts_unseen_periods_best(cas
     thetas = [single._searched(case["parts"].to_numpy(), residual, rows).gpr_.kernel_.theta.tolist() for rows in seeded]
     assert thetas[0] == single.gp_.gpr_.kernel_.theta.tolist()  # the first draw is the single draw's
     assert model.gp_.gpr_.kernel_.theta.tolist() == thetas[int(np.argmin(model.draw_errors_))]
+    assert GPDiscrepancy.from_dict(model.to_dict()).get_params()["n_draws"] == 3
+    stored = json.loads((Path(__file__).parent / "data" / "models" / "peer_gp_discrepancy.json").read_text())
+    assert "n_draws" not in stored["params"] and GPDiscrepancy.from_dict(stored).get_params()["n_draws"] == 1
     every = GPDiscrepancy(n_hyper=60, n_fit=60, n_draws=3).fit(case["parts"], residual)  # every row in each draw
     assert every.draw_errors_ == [0.0] and not every.period_predictions_  # one search: the draws would be alike
 

@@ -109,7 +109,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
 
     @classmethod
     def from_dict(cls, data: dict) -> "GPDiscrepancy":
-        model = cls(**data["params"])
+        model = cls(**{"n_draws": 1, **data["params"]})  # files written before the draws searched one
         model.gp_ = cls.surrogate_class.from_dict(data["gp"])
         model.n_features_in_ = model.gp_.n_features_in_
         model.training_rows_ = np.asarray(data["training_rows"], int)
