@@ -7,6 +7,15 @@ import pandas as pd
 
 from hybridtwin.metrics import scores
 
+SEARCH_FOLDS = 5  # periods on which a peer's candidate hyperparameters (searches, draws) are compared
+
+
+def lowest_on_periods(held_out: list[np.ndarray], y) -> tuple[list[float], int]:
+    """Each candidate's RMSE against ``y`` of its out-of-period predictions, and the index of the lowest (one
+    candidate, nothing held out: [0.0] and 0)."""
+    errors = [float(np.sqrt(np.mean((np.asarray(p) - y) ** 2))) for p in held_out] or [0.0]
+    return errors, int(np.argmin(errors))
+
 
 def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
     """Seeded subset of row positions (all rows when there are fewer), in order."""

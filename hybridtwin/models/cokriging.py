@@ -2,12 +2,12 @@
 parts' measured values as high fidelity.
 
 The hyperparameters are searched by SMT's likelihood, with SMT's documented kernel (squared exponential) and
-length-scale bounds (Cobyla, to which SMT's default TNC switches when the noise is estimated), ``n_searches``
-times: each search on its own seeded draw of ``n_high`` of the ``n_fit`` parts, from ``n_start`` starts beyond
-SMT's own two. Which optimum a search ends in depends on its draw (on the bi-fidelity functions one search of 10
-starts came out up to 6 times the plain SMT MFK's truth-RMSE in support, another draw of the same plant near it),
-and the likelihoods of different draws do not compare: each search's hyperparameters are judged by the error of
-the model on the ``n_fit`` parts, each part predicted without its period (:data:`SEARCH_FOLDS` periods of
+length-scale bounds (Cobyla, to which SMT's default TNC switches when the noise is estimated), ``n_searches`` times:
+each search on its own seeded draw of ``n_high`` of the ``n_fit`` parts, from ``n_start`` starts beyond SMT's own
+two. Which optimum a search ends in depends on its draw (on the bi-fidelity functions one search of 10 starts came
+out up to 6 times the plain SMT MFK's truth-RMSE in support, another draw of the same plant near it), and the
+likelihoods of different draws do not compare: each search's hyperparameters are judged by the error of the model on
+the ``n_fit`` parts, each part predicted without its period (:data:`~hybridtwin.crossval.SEARCH_FOLDS` periods of
 consecutive parts). The chosen search's predictions there are also its out-of-fold values on those periods, so its
 score on its own parts is the best of ``n_searches`` and slightly optimistic. The best hyperparameters are held
 while the model is refitted on all ``n_fit`` parts (one likelihood evaluation per level): campaigns are narrow, and
@@ -26,7 +26,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import period_folds, training_subset
+from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, period_folds, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
 
@@ -105,9 +105,6 @@ def _mfk_class():
             return value, par, theta
 
     return FastMFK, FixedMFK
-
-
-SEARCH_FOLDS = 5  # periods on which the searches' hyperparameters are compared
 
 
 def ar1_state(mfk) -> dict:
@@ -207,8 +204,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         found = [self._search(X_high[draw], y[draw], self.random_state + k) for k, draw in enumerate(draws)]
         # the likelihoods of different draws do not compare: the searches are judged on periods they did not see
         held_out = [self._period_predictions(SEARCH_FOLDS, h) for h in found] if len(found) > 1 else []
-        self.search_errors_ = [float(np.sqrt(np.mean((p - self.data_["y_high"]) ** 2))) for p in held_out] or [0.0]
-        best = int(np.argmin(self.search_errors_))
+        self.search_errors_, best = lowest_on_periods(held_out, self.data_["y_high"])
         self.searched_ = found
         self.hyperparameters_, self.hyper_rows_ = found[best], draws[best]
         # the chosen search's out-of-period predictions, kept: out_of_fold on the same periods would refit them

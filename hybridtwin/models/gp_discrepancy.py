@@ -15,9 +15,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import period_folds, training_subset
+from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, period_folds, training_subset
 from hybridtwin.models.batches import batched
-from hybridtwin.models.cokriging import SEARCH_FOLDS
 from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
 from hybridtwin.paper.surrogate import GPRSurrogate
 
@@ -56,8 +55,7 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         found = [self._searched(matrix, y, draw) for draw in draws]
         # one draw's optimum varies with the draw: the draws' GPs are judged on periods of the rows they did not see
         held_out = [self._period_predictions(gp.to_dict(), SEARCH_FOLDS) for gp in found] if n_draws > 1 else []
-        self.draw_errors_ = [float(np.sqrt(np.mean((p - y[rows]) ** 2))) for p in held_out] or [0.0]
-        best = int(np.argmin(self.draw_errors_))
+        self.draw_errors_, best = lowest_on_periods(held_out, y[rows])
         self.gp_, self.hyper_rows_ = found[best], draws[best]
         # the chosen draw's out-of-period predictions, kept: out_of_fold on the same periods would refit them. Its
         # score on its own parts is then the best of n_draws and slightly optimistic (as co-kriging's); each draw's

@@ -76,9 +76,8 @@ def load_batch(path, predictor, fmt: CsvFormat | None = None) -> pd.DataFrame:
         raise no_target(where, target, [str(name) for name in batch.columns])
     batch[target] = numeric_column(batch, target, where, fmt)
     check_columns(batch, predictor, where)
-    batch = _numeric_extras(batch, [*inputs, target], fmt)  # a counter read as text would look like dates
     check_time_order(batch, where)
-    return batch.reset_index(drop=True)
+    return _numeric_extras(batch, [*inputs, target], fmt).reset_index(drop=True)
 
 
 def check_columns(batch: pd.DataFrame, predictor, where: str) -> None:
