@@ -6,13 +6,15 @@ family, 70,000 parts, committed seeds) the in-support parts of the first 70% of 
 paper's residual model, and the in-support parts of the last 30% score it: the hybrid's RMSE against the
 noise-free truth, with hyperparameters tuned
 
-- on every training part (no cap), with the run's seed and with another one (sampler, folds and XGBoost: the
+- on every training part (no cap), with the plant's seed and with another one (sampler, folds and XGBoost: the
   spread that the study's own randomness gives), and
-- on seeded samples of ``--sizes`` parts.
+- on seeded samples of ``--sizes`` parts, and
+- on every training part with the median pruner active from ``--prune-after`` finished trials on (default 5).
 
 The final model is always fitted on every training part. Usage:
 
     python benchmarks/tuning_sample.py --plants 9 --seed 5 --sizes 3000 6000      # about 2 minutes a plant
+    python benchmarks/tuning_sample.py --plants 9 --seed 6 --sizes --prune-after 1 2 --name tuning_pruning
 
 Writes benchmarks/results/tuning_sample.csv (a row per plant and tuning) and tuning_sample.md (the summary).
 """
@@ -44,7 +46,9 @@ TRAIN_SHARE = 0.7
 
 
 def plant(index: int, seed: int):
-    """The index-th plant: the demo first, then the families in turn."""
+    """The index-th plant: the demo first, then the families in turn; its name, case and draw (the seed of its
+    run and its study: with one sampler seed for every plant, the studies' first trials would be the same
+    parameters on every plant)."""
     draw = seed * 100 + index
     if index == 0:
         frames = demo.generate(replace(demo.DemoPlant(), seed=draw, n_production=N_PARTS))
@@ -52,16 +56,16 @@ def plant(index: int, seed: int):
         case = families.PlantCase(
             "demo", "", frames["doe"], frames["production"], truth, list(demo.INPUT_NAMES), demo.TARGET, None, 0.0
         )
-        return f"demo seed {draw}", case
+        return f"demo seed {draw}", case, draw
     family = families.FAMILIES[(index - 1) % len(families.FAMILIES)]
-    return f"{family} seed {draw}", families.draw_plant(family, draw, n_production=N_PARTS)
+    return f"{family} seed {draw}", families.draw_plant(family, draw, n_production=N_PARTS), draw
 
 
 def rmse(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
-def measure(name: str, case, seed: int, sizes: list[int], n_trials: int) -> list[dict]:
+def measure(name: str, case, seed: int, sizes: list[int], n_trials: int, prune_after: list[int]) -> list[dict]:
     run = Run.of(case, seed)
     inputs = list(run.spec.inputs)
     X = case.production[inputs].to_numpy(float)
@@ -70,10 +74,14 @@ def measure(name: str, case, seed: int, sizes: list[int], n_trials: int) -> list
     cut = int(TRAIN_SHARE * len(X))
     train = np.flatnonzero(inside[:cut])
     test = cut + np.flatnonzero(inside[cut:])
-    tunings = [("every part", train, seed), ("every part, other sampler seed", train, seed + 1)]
-    tunings += [(f"sample of {n}", train[training_subset(len(train), n, seed)], seed) for n in sizes if n < len(train)]
+    default = tuning.PRUNE_AFTER
+    tunings = [("every part", train, seed, default), ("every part, other sampler seed", train, seed + 1, default)]
+    tunings += [
+        (f"sample of {n}", train[training_subset(len(train), n, seed)], seed, default) for n in sizes if n < len(train)
+    ]
+    tunings += [(f"pruning after {k} trials", train, seed, k) for k in prune_after if k != default]
     rows = []
-    for label, tuned_rows, sampler_seed in tunings:
+    for label, tuned_rows, sampler_seed, prune in tunings:
         with tempfile.TemporaryDirectory() as folder:
             start = time.perf_counter()
             study = tuning.tune(
@@ -83,6 +91,7 @@ def measure(name: str, case, seed: int, sizes: list[int], n_trials: int) -> list
                 n_folds=run.spec.folds,
                 seed=sampler_seed,
                 storage=f"{folder}/journal.log",
+                prune_after=prune,
             )
             seconds = time.perf_counter() - start
             params = tuning.best_params(study, n_trials=n_trials)
@@ -129,14 +138,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--plants", type=int, default=9)
     parser.add_argument("--seed", type=int, default=5)
-    parser.add_argument("--sizes", type=int, nargs="+", default=[3000, 6000])
+    parser.add_argument("--sizes", type=int, nargs="*", default=[3000, 6000])
+    parser.add_argument(
+        "--prune-after",
+        type=int,
+        nargs="*",
+        default=[],
+        help="also tune on every part with the median pruner active after this many finished trials",
+    )
     parser.add_argument("--trials", type=int, default=configuration.section_defaults("tuning")["n_trials"])
     parser.add_argument("--name", default="tuning_sample")
     args = parser.parse_args()
     rows = []
     for index in range(args.plants):
-        name, case = plant(index, args.seed)
-        rows += measure(name, case, args.seed, args.sizes, args.trials)
+        name, case, draw = plant(index, args.seed)
+        rows += measure(name, case, draw, args.sizes, args.trials, args.prune_after)
         table = pd.DataFrame(rows)
         print(write_results(OUT, args.name, "Tuning on a sample of the in-support parts", table, summary(table)))
 

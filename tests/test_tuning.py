@@ -77,7 +77,8 @@ def _complete(study):
 def test_tune_writes_journal_and_resumes(tiny_residual_data, tmp_path):
     X, y = tiny_residual_data
     journal = tmp_path / "j.log"
-    kwargs = dict(n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE)
+    # no trial pruned: each is complete, with its value
+    kwargs = dict(n_folds=3, seed=0, storage=str(journal), space=SMALL_SPACE, prune_after=10)
     first = tuning.tune(X, y, n_trials=3, **kwargs)
     assert journal.exists() and journal.stat().st_size > 0
     before = [(t.number, t.params, t.value) for t in _complete(first)]
@@ -141,10 +142,11 @@ def test_tune_fresh_study_is_deterministic(tiny_residual_data, tmp_path):
 
 def test_tune_objective_is_cv_rmse(tiny_residual_data, tmp_path):
     X, y = tiny_residual_data
-    study = tuning.tune(X, y, n_trials=1, n_folds=3, seed=0, storage=str(tmp_path / "j.log"), space=SMALL_SPACE)
-    trial = _complete(study)[0]
-    per_fold, _ = cross_validate(residual.make_model(trial.params, 0), X, y, 3, 0)
-    assert trial.value == pytest.approx(per_fold["rmse"].mean(), rel=1e-12)
+    # the folds' training matrices are built once and shared by the trials: the values stay the CV's, bit for bit
+    study = tuning.tune(X, y, n_trials=3, n_folds=3, seed=0, storage=str(tmp_path / "j.log"), space=SMALL_SPACE)
+    for trial in _complete(study):
+        per_fold, _ = cross_validate(residual.make_model(trial.params, 0), X, y, 3, 0)
+        assert trial.value == per_fold["rmse"].mean()
 
 
 def test_tuning_logs_every_trial_with_the_best_so_far(tmp_path, caplog):
@@ -256,3 +258,18 @@ def test_a_worker_that_loses_the_race_to_create_the_database_tables_tries_again(
     assert len(opened) == 3
     # a journal file is no database
     assert isinstance(tuning.open_storage(str(tmp_path / "journal.log")), optuna.storages.JournalStorage)
+
+
+def test_a_trial_worse_than_the_first_two_stops_after_its_first_fold(tiny_residual_data, tmp_path):
+    # measured on nine plants to cost nothing (docs/benchmarks.md): pruning after two trials, not five
+    X, y = tiny_residual_data
+    storage = str(tmp_path / "j.log")
+    name = f"residual-{tuning.fingerprint(X, y, SMALL_SPACE, 3, 0)}"
+    study = tuning.open_study(name, storage, seed=0, worker=0)
+    good = {"n_estimators": 20, "max_depth": 3, "learning_rate": 0.3, "subsample": 1.0, "colsample_bytree": 1.0}
+    good |= {"min_child_weight": 1, "gamma": 0.0, "reg_alpha": 0.001, "reg_lambda": 0.001}
+    for params in (good, good | {"max_depth": 2}, good | {"n_estimators": 5, "learning_rate": 0.005}):
+        study.enqueue_trial(params)
+    trials = tuning.tune(X, y, n_trials=3, n_folds=3, seed=0, storage=storage, space=SMALL_SPACE).trials
+    assert [t.state.name for t in trials] == ["COMPLETE", "COMPLETE", "PRUNED"]
+    assert list(trials[2].intermediate_values) == [0]

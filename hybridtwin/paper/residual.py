@@ -23,6 +23,18 @@ def make_model(params: dict, seed: int, n_jobs: int = 1, max_train_rows: int | N
     return model if max_train_rows is None else RowCapped(model, max_train_rows, seed)
 
 
+def training_matrix(X, y, n_jobs: int = 1) -> xgb.QuantileDMatrix:
+    """The matrix ``XGBRegressor.fit`` trains a hist model on (its quantile sketch of ``X``), built once for many
+    fits on the same rows."""
+    return xgb.QuantileDMatrix(np.asarray(X, float), label=np.asarray(y, float), nthread=n_jobs, missing=np.nan)
+
+
+def fitted_booster(model: xgb.XGBRegressor, matrix: xgb.QuantileDMatrix) -> xgb.Booster:
+    """The booster ``model.fit`` would train on the rows of ``matrix``: its parameters and rounds, XGBoost's own
+    training."""
+    return xgb.train(model.get_xgb_params(), matrix, model.get_num_boosting_rounds())
+
+
 class RowCapped(RegressorMixin, BaseEstimator):
     """An estimator fitted on a seeded sample of at most ``max_rows`` of the rows it is given (all of them
     when there are fewer): on a plant log of millions of parts its fit time stays bounded. Predicts every

@@ -16,6 +16,9 @@ rule peer:
         benchmark_of("peer", "_{peer}")
     wildcard_constraints:
         peer="|".join(PEERS),
+    # the peers are the longest steps beside the tuning, and the predictions after the extension wait for
+    # them: they go before the proposals and the paper's evaluation figures
+    priority: 1
     conda:
         "../envs/hybridtwin.yaml"
     params:
