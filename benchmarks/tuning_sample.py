@@ -120,7 +120,7 @@ def summary(table: pd.DataFrame) -> str:
     table = table.assign(ratio=table["rmse_vs_truth"] / table["plant"].map(reference))
     lines = [
         "Hybrid RMSE against the noise-free truth on the in-support parts of the last 30% of each log, over the",
-        "same with hyperparameters tuned on every training part (the run's sampler seed). Ratio 1.00: no cost.",
+        "same with hyperparameters tuned on every training part (the plant's sampler seed). Ratio 1.00: no cost.",
         "",
         "| tuning | plants | median ratio | worst ratio | best ratio | median tuning time [s] |",
         "|---|---:|---:|---:|---:|---:|",

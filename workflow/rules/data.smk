@@ -35,6 +35,9 @@ rule validate_inputs:
         benchmark_of("validate_inputs", "_{role}")
     wildcard_constraints:
         role="doe|production|matched",
+    # on the way to the tuning, and to the matched-case check on the critical path (a priority is not passed on
+    # to what a job waits for)
+    priority: 2
     conda:
         "../envs/hybridtwin.yaml"
     params:
