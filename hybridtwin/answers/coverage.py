@@ -27,7 +27,7 @@ from hybridtwin.answers.regions import (
     outside_range,
     region_label,
 )
-from hybridtwin.answers.trust import EXTRAPOLATION, Reach, verdicts
+from hybridtwin.answers.trust import EXTRAPOLATION, Reach, trust_levels
 from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
@@ -212,7 +212,7 @@ def calibrate(
     measured = predictions["measured"].to_numpy(float)
     reach = Reach.of(amounts[calibration], distance[calibration], ~inside[calibration], threshold, doe_range, units)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
-    usable = verdicts(inside, amounts, distance, reach)[0] != EXTRAPOLATION
+    usable = trust_levels(inside, amounts, distance, reach) != EXTRAPOLATION
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model

@@ -43,9 +43,20 @@ class Reach:
         return cls(float(threshold), furthest, reach, dict(doe_range), dict(units or {}))
 
 
-def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=None) -> tuple[np.ndarray, np.ndarray]:
-    """``trust`` and ``trust_reason`` per row (``beyond``: each input's signed distance beyond the DoE's range;
-    ``novelty``: each row's distance to the logged production, :class:`novelty.ProductionNeighbourhood`)."""
+@dataclass
+class _Levels:
+    """Each row's verdict and what decided it."""
+
+    trust: np.ndarray
+    inside: np.ndarray
+    amounts: np.ndarray
+    distance: np.ndarray
+    past_reach: np.ndarray
+    too_far: np.ndarray
+    novel: np.ndarray
+
+
+def _levels(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=None) -> _Levels:
     inside = np.asarray(in_support, bool)
     distance = np.asarray(distance, float)
     amounts = beyond[list(reach.beyond)].to_numpy(float)
@@ -61,14 +72,27 @@ def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=N
     trust = np.where(
         past_reach.any(axis=1) | too_far | novel, EXTRAPOLATION, np.where(inside & in_range, VALIDATED, CALIBRATED)
     ).astype(object)
+    return _Levels(trust, inside, amounts, distance, past_reach, too_far, novel)
+
+
+def trust_levels(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=None) -> np.ndarray:
+    """``trust`` per row, without the reasons (their words cost most of the time and memory on a long log)."""
+    return _levels(in_support, beyond, distance, reach, novelty).trust
+
+
+def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=None) -> tuple[np.ndarray, np.ndarray]:
+    """``trust`` and ``trust_reason`` per row (``beyond``: each input's signed distance beyond the DoE's range;
+    ``novelty``: each row's distance to the logged production, :class:`novelty.ProductionNeighbourhood`)."""
+    found = _levels(in_support, beyond, distance, reach, novelty)
+    trust, inside, amounts, distance = found.trust, found.inside, found.amounts, found.distance
     reason = np.full(len(trust), "", dtype=object)
     rows = trust == VALIDATED
     reason[rows] = _validated(distance[rows], reach.threshold)
     rows = trust == CALIBRATED
     reason[rows] = _calibrated(inside[rows], amounts[rows], distance[rows], reach)
     rows = trust == EXTRAPOLATION
-    reason[rows] = _extrapolated(past_reach[rows], amounts[rows], distance[rows], reach)
-    only_novel = novel & ~past_reach.any(axis=1) & ~too_far
+    reason[rows] = _extrapolated(found.past_reach[rows], amounts[rows], distance[rows], reach)
+    only_novel = found.novel & ~found.past_reach.any(axis=1) & ~found.too_far
     if only_novel.any():
         reason[only_novel] = _novel(np.asarray(novelty, float)[only_novel], reach)
     return trust, reason
