@@ -114,7 +114,7 @@ def workflow_run(case: dict, folder: Path, seed: int) -> tuple[pd.DataFrame, pd.
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     results = folder / "results"
     predictions = files.read_checked(results / "predictions" / "production.csv")
-    residuals = files.read_checked(results / "residuals" / "production_residuals.csv")
+    residuals = files.read_checked(results / "residuals" / "production_residuals.parquet")
     threshold = float(files.read_json(results / "models" / registry.FILES["gate"])["threshold"])
     return predictions, residuals, {"config": config, "threshold": threshold}
 

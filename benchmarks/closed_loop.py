@@ -157,8 +157,8 @@ def main() -> None:
     inputs, target = list(config["columns"]["inputs"]), config["columns"]["target"]
     gate = config.get("gate", {})
     k, percentile = int(gate.get("k", 5)), float(gate.get("percentile", 95))
-    doe = pd.read_csv(workdir / "results/data/doe.csv")[inputs].to_numpy(float)
-    production = pd.read_csv(workdir / "results/data/production.csv")[inputs].to_numpy(float)
+    doe = pd.read_parquet(workdir / "results/data/doe.parquet")[inputs].to_numpy(float)
+    production = pd.read_parquet(workdir / "results/data/production.parquet")[inputs].to_numpy(float)
     proposals = pd.read_csv(workdir / "results/enrichment/proposed_simulations.csv")[inputs].to_numpy(float)
     n = len(proposals)
     low, high = enrichment.physical_limits(doe, production, 0.05)

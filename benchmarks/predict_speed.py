@@ -33,7 +33,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", type=int, default=100_000)
     parser.add_argument("--models", default="results/models")
-    parser.add_argument("--production", default="results/data/production.csv")
+    parser.add_argument("--production", default="results/demo/production.csv")
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
     production = pd.read_csv(args.production)

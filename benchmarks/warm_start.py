@@ -45,8 +45,8 @@ def main() -> None:
         int(config.get("seed", 0)),
         int(config.get("cv", {}).get("folds", 5)),
     )
-    production = pd.read_csv(Path(args.results) / "data/production.csv")
-    residuals = pd.read_csv(Path(args.results) / "residuals/production_residuals.csv")
+    production = pd.read_parquet(Path(args.results) / "data/production.parquet")
+    residuals = pd.read_parquet(Path(args.results) / "residuals/production_residuals.parquet")
     inside = residuals["in_support"].astype(bool).to_numpy()
     X, y = production.loc[inside, inputs].to_numpy(float), residuals.loc[inside, "residual_approx"].to_numpy(float)
     earlier = np.flatnonzero(inside)[: int(0.9 * inside.sum())]

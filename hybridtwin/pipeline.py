@@ -208,6 +208,14 @@ def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict)
     return fit_peer(name, doe, production, residual_table, spec.inputs, spec.target, settings, spec.seed, spec.folds)
 
 
+def read_predictions(hybrid, extension, peers) -> pd.DataFrame:
+    """:func:`joined_predictions` of the steps' own files (paths): the table of results/predictions/production.csv,
+    which is written for the user, read faster from its parts."""
+    from hybridtwin.io.files import read_checked
+
+    return joined_predictions(read_checked(hybrid), read_checked(extension), [read_checked(path) for path in peers])
+
+
 def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame, peer_tables) -> pd.DataFrame:
     """results/predictions/production.csv: the hybrids', the extension's and the peers' columns side by side."""
     parts = [hybrid_table, extension_table, *peer_tables]

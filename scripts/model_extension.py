@@ -45,7 +45,7 @@ def main(snakemake):
     files.write_csv(table, snakemake.output.table)
     files.write_json(result.models.stored(), snakemake.output.extension)
     residual.save_model(result.models.remainder, snakemake.output.remainder, spec.inputs)
-    files.write_csv(result.production, snakemake.output.predictions)
+    files.write_table(result.production, snakemake.output.predictions)
     files.write_csv(pd.DataFrame(result.matched), snakemake.output.matched_predictions, float_format=None)
 
 

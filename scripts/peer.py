@@ -19,7 +19,7 @@ def main(snakemake):
     )
     logging.info("%s: fitted on %d in-support parts in %.1f s", name, fit.n_train, fit.fit_seconds)
     files.write_json(fit.model.to_dict(), snakemake.output.model)
-    files.write_csv(fit.production, snakemake.output.predictions, float_format=None)
+    files.write_table(fit.production, snakemake.output.predictions)
     files.write_json({"model": name, "fit_seconds": fit.fit_seconds, "n_train": fit.n_train}, snakemake.output.summary)
 
 

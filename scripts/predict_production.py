@@ -16,7 +16,7 @@ def main(snakemake):
         {training: files.read_checked(snakemake.input[f"{training}_oof"]) for training in residual.TRAINING_SETS},
         spec,
     )
-    files.write_csv(table, snakemake.output.predictions)
+    files.write_table(table, snakemake.output.predictions)
 
 
 run(snakemake, main)

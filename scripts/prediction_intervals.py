@@ -15,9 +15,11 @@ from hybridtwin.report import plots
 
 def main(snakemake):
     p, spec = snakemake.params, spec_of(snakemake)
-    predictions, doe, log, matched = (
-        read_checked(snakemake.input[name]) for name in ("predictions", "doe", "production", "matched")
+    found = snakemake.input
+    predictions = pipeline.read_predictions(
+        found.hybrid_predictions, found.extension_predictions, found.peer_predictions
     )
+    doe, log, matched = (read_checked(found[name]) for name in ("doe", "production", "matched"))
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
     truth, noise = demo_truth(snakemake.input)

@@ -3,17 +3,12 @@ in input order."""
 
 from hybridtwin import pipeline
 from hybridtwin.io import files
-from hybridtwin.io.files import read_checked
 from hybridtwin.io.runner import run
 
 
 def main(snakemake):
-    table = pipeline.joined_predictions(
-        read_checked(snakemake.input.hybrid),
-        read_checked(snakemake.input.extension),
-        [read_checked(path) for path in snakemake.input.peers],
-    )
-    files.write_csv(table, snakemake.output.predictions)
+    found = snakemake.input
+    files.write_csv(pipeline.read_predictions(found.hybrid, found.extension, found.peers), snakemake.output.predictions)
 
 
 run(snakemake, main)

@@ -19,7 +19,7 @@ def main(snakemake):
         files.read_json(snakemake.input.best)["params"],
     )
     files.write_csv(result.per_fold, snakemake.output.folds)
-    files.write_csv(result.oof, snakemake.output.oof)  # each row's fold: the extension is scored on the same split
+    files.write_table(result.oof, snakemake.output.oof)  # each row's fold: the extension is scored on the same split
     files.write_csv(result.table, snakemake.output.table)
 
 

@@ -12,7 +12,7 @@ def main(snakemake):
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
     inside = files.read_checked(snakemake.input.support, ["in_support"])["in_support"]
     # full precision: later rules add to these values, and the frozen predictor must give the same sums
-    files.write_csv(
+    files.write_table(
         pipeline.residuals(surrogate, production, spec, inside), snakemake.output.residuals, float_format=None
     )
 

@@ -17,7 +17,7 @@ def main(snakemake):
         found.table["in_support"].to_numpy(), doe, production, spec.inputs, p.paths, found.gate.threshold_
     )
     files.write_json(found.gate.to_dict(), snakemake.output.model)
-    files.write_csv(found.table, snakemake.output.production)
+    files.write_table(found.table, snakemake.output.production)
     files.save_figure(
         plots.support_distances(
             found.gate.doe_distances_, found.table["knn_distance"].to_numpy(), found.gate.threshold_, p.percentile

@@ -618,7 +618,7 @@ def run_workflow(case: Case, **changes) -> subprocess.CompletedProcess:
             sys.executable,
             "-m",
             "snakemake",
-            *(f"results/data/{role}.csv" for role in ("doe", "production", "matched")),
+            *(f"results/data/{role}.parquet" for role in ("doe", "production", "matched")),
             "-s",
             str(ROOT / "Snakefile"),
             "-d",

@@ -45,6 +45,33 @@ def test_csv_writer_gives_the_float_format_values_and_every_other_value_back(tmp
     assert pd.read_csv(tmp_path / "exact.csv", sep=sep)["x"].tolist()[5] == 43.4761234567
 
 
+@pytest.mark.parametrize("float_format", ["%.8g", "%.3g", None])
+def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float_format):
+    """A step reads the same values from a per-part table in Parquet as from the same table in CSV: floats
+    rounded alike, every other value and type kept (an empty text aside, which CSV cannot tell from missing)."""
+    from hybridtwin.io import files
+
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 3)  # written a few rows at a time, in both formats
+    frame = _table_to_write().assign(text=lambda table: table["text"].replace("", "e"))
+    files.write_csv(frame, tmp_path / "table.csv", float_format)
+    files.write_table(frame, tmp_path / "table.parquet", float_format)
+    as_csv, as_parquet = (files.read_checked(tmp_path / f"table.{kind}") for kind in ("csv", "parquet"))
+    pd.testing.assert_frame_equal(as_parquet, as_csv)
+    if float_format is None:
+        assert as_parquet["x"].tolist()[2:] == frame["x"].tolist()[2:]  # every digit
+    # only the columns asked for, in the file's order, as with a CSV
+    pd.testing.assert_frame_equal(files.read_checked(tmp_path / "table.parquet", ["flag", "x"]), as_csv[["x", "flag"]])
+    with pytest.raises(ValueError, match="'missing'"):
+        files.read_checked(tmp_path / "table.parquet", ["x", "missing"])
+
+
+def test_write_table_writes_csv_unless_the_path_says_parquet(tmp_path):
+    from hybridtwin.io import files
+
+    files.write_table(_table_to_write(), tmp_path / "table.csv")
+    assert (tmp_path / "table.csv").read_text().startswith("x,n,text,flag\n")
+
+
 def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path, monkeypatch):
     from hybridtwin.io import files
 
@@ -56,14 +83,15 @@ def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path,
             "flag": [True, False, True, False, True, True, False],
         }
     )
-    arrow_writer, arrow_used = files._write_text_columns, []
-    monkeypatch.setattr(files, "_write_text_columns", lambda *args: arrow_used.append(1) or arrow_writer(*args))
+    arrow_writer, arrow_used = files._write_text_rows, []
+    monkeypatch.setattr(files, "_write_text_rows", lambda *args: arrow_used.append(1) or arrow_writer(*args))
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 3)  # rows turned into text in chunks join up
     for float_format, pandas_format in ((None, None), ("%.3g", "%.3g")):
         files.write_csv(frame, tmp_path / "ours.csv", float_format=float_format)
         expected = frame.assign(x=[float(pandas_format % v) for v in frame["x"]]) if pandas_format else frame
         expected.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
         assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
-    assert len(arrow_used) == 2
+    assert len(arrow_used) == 2 * 3  # two formats, three chunks each
     back = pd.read_csv(tmp_path / "ours.csv")
     assert back["x"].dtype == float and back["x"].tolist()[2] == 2.0  # a whole float stays a float
 
@@ -79,13 +107,14 @@ def test_text_with_separators_quotes_or_line_breaks_is_quoted_by_arrow_as_pandas
             "plain": ["a", "b", "c", "d", ""],
         }
     )
-    arrow_writer, arrow_used = files._write_text_columns, []
-    monkeypatch.setattr(files, "_write_text_columns", lambda *args: arrow_used.append(1) or arrow_writer(*args))
+    arrow_writer, arrow_used = files._write_text_rows, []
+    monkeypatch.setattr(files, "_write_text_rows", lambda *args: arrow_used.append(1) or arrow_writer(*args))
     monkeypatch.setattr(files, "LINES_PER_WRITE", 2)  # lines written in batches join up
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 4)  # and so do chunks of rows
     files.write_csv(frame, tmp_path / "ours.csv", float_format=None, sep=sep)
     frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n", sep=sep)
     assert (tmp_path / "ours.csv").read_bytes() == (tmp_path / "pandas.csv").read_bytes()
-    assert arrow_used == [1]
+    assert arrow_used == [1, 1]
     back = pd.read_csv(tmp_path / "ours.csv", sep=sep, keep_default_na=False, na_values=[""])
     assert back["reason"].tolist()[:2] == ["a, b; c", 'say "c"'] and back["reason"].tolist()[3] == "two\nlines"
 
@@ -110,6 +139,16 @@ def test_any_other_table_is_written_by_pandas(tmp_path, frame):
     files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
     frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
     assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
+
+
+def test_a_chunk_only_pandas_writes_right_hands_the_whole_table_to_pandas(tmp_path, monkeypatch):
+    from hybridtwin.io import files
+
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # the first chunk is written by Arrow before the third is seen
+    frame = pd.DataFrame({"x": [1.5, 2.5, 3.5, 4.5, 5.5], "text": ["a", "b", "c", "d\re", "f"]})
+    files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
+    frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
+    assert (tmp_path / "ours.csv").read_bytes() == (tmp_path / "pandas.csv").read_bytes()
 
 
 @pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])

@@ -92,9 +92,9 @@ def test_a_column_the_entry_lacks_is_reported_and_stand_ins_cover_the_runs_input
 
 
 def test_a_wildcard_stands_for_one_path_part_only():
-    entry = outputs.entry_for("peers/cokriging_production.csv")
-    assert entry is not None and entry.path == "peers/{peer}_production.csv"
-    assert not entry.matches("peers/a/b_production.csv")
+    entry = outputs.entry_for("peers/cokriging_production.parquet")
+    assert entry is not None and entry.path == "peers/{peer}_production.parquet"
+    assert not entry.matches("peers/a/b_production.parquet")
 
 
 def test_the_outputs_page_is_the_catalogues():

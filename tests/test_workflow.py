@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 import xgboost as xgb
 import yaml
@@ -111,9 +112,12 @@ def test_every_file_and_column_a_run_writes_is_in_the_outputs_catalogue(run_dir)
     for relative in written:
         entry = outputs.entry_for(relative)
         assert entry is not None, f"{relative} is not in hybridtwin/io/outputs.yaml"
-        if not relative.endswith(".csv") or relative.startswith(COLUMNS_ELSEWHERE):
+        if not relative.endswith((".csv", ".parquet")) or relative.startswith(COLUMNS_ELSEWHERE):
             continue
-        header = pd.read_csv(results / relative, nrows=0, sep=config.get("csv", {}).get("sep", ",")).columns
+        if relative.endswith(".parquet"):
+            header = pq.read_schema(results / relative).names
+        else:
+            header = pd.read_csv(results / relative, nrows=0, sep=config.get("csv", {}).get("sep", ",")).columns
         missing = outputs.undescribed_columns(entry, header, config["columns"]["inputs"], DEFAULT_SEARCH_SPACE)
         assert not missing, f"{relative}: columns {missing} are not described in hybridtwin/io/outputs.yaml"
 
@@ -155,7 +159,7 @@ def test_tables_contracts(run_dir):
     table5 = pd.read_csv(tables / "table5_sensitivity.csv")
     assert table5["region"].tolist() == ["in_support", "out_of_support", "all"]
     table1 = pd.read_csv(tables / "table1_datasets.csv")
-    support = pd.read_csv(run_dir / "results/support/production_support.csv")
+    support = files.read_checked(run_dir / "results/support/production_support.parquet")
     assert table1.loc[table1["dataset"] == "Production in-support subset", "size"].item() == support["in_support"].sum()
     for name in ("table2_surrogate_cv", "table3_residual_cv", "table5_sensitivity", "matched_check", "model_extension"):
         assert "evaluated_on" in pd.read_csv(tables / f"{name}.csv"), f"{name} must say on what data it was computed"
@@ -165,7 +169,7 @@ def test_diagnosis_report_states_the_data(run_dir):
     """The offset is the mean in-support residual in sign and size, and the top cause is the table's first."""
     results = run_dir / "results"
     text = (results / "diagnosis.md").read_text()
-    residuals = pd.read_csv(results / "residuals/production_residuals.csv")
+    residuals = files.read_checked(results / "residuals/production_residuals.parquet")
     offset = residuals.loc[residuals["in_support"].astype(bool), "residual_approx"].mean()
     says(text, "`draw_in_mm`", f"{abs(offset):.2f} mm", "higher" if offset > 0 else "lower")
     summary = json.loads((results / "diagnosis/diagnosis.json").read_text())
@@ -185,7 +189,7 @@ def test_models_load_with_their_own_loaders_and_reproduce_predictions(run_dir):
             assert path.suffix == ".json", f"{path.name}: only JSON model files"
             json.loads(path.read_text())  # plain JSON, nothing to unpickle
     assert not list((run_dir / "results").rglob("*.pkl")) and not list((run_dir / "results").rglob("*.pickle"))
-    production = pd.read_csv(run_dir / "results/data/production.csv")
+    production = files.read_checked(run_dir / "results/data/production.parquet")
     predictions = pd.read_csv(run_dir / "results/predictions/production.csv")
     inputs = yaml.safe_load(open(TEST_CONFIG))["columns"]["inputs"]
     X = production[inputs].to_numpy(float)
@@ -271,7 +275,7 @@ def _tuning_under_way(workdir, n_trials: int):
     }
     config_path = workdir / "config.yaml"
     config_path.write_text(yaml.safe_dump(config))
-    snakemake(workdir, "results/residuals/production_residuals.csv", config=config_path)
+    snakemake(workdir, "results/residuals/production_residuals.parquet", config=config_path)
     journal = workdir / "results/optuna/journal.log"
     process = snakemake(
         workdir,
@@ -470,7 +474,7 @@ def test_a_setting_beyond_the_doe_range_is_out_of_the_domain_even_inside_the_gat
     from hybridtwin import Predictor
 
     predictor = Predictor.load(run_dir / "results/models")
-    doe = pd.read_csv(run_dir / "results/data/doe.csv")
+    doe = files.read_checked(run_dir / "results/data/doe.parquet")
     row = doe[predictor.inputs].median().to_frame().T
     hotter = row.assign(die_temp_c=doe["die_temp_c"].max() + 0.5)
     answers = predictor.predict(pd.concat([row, hotter], ignore_index=True), all_models=True)
@@ -607,7 +611,7 @@ def test_appending_production_reruns_neither_the_surrogate_nor_the_doe_check(run
     planned = set(re.findall(r"^(?:local)?rule (\w+):", dry, re.M))
     assert {"validate_inputs", "residuals", "tune_residual", "prediction_intervals"} <= planned
     assert not {"surrogate_fit", "surrogate_cv", "demo_data"} & planned, planned
-    assert "output: results/data/doe.csv" not in dry and "output: results/data/production.csv" in dry
+    assert "output: results/data/doe.parquet" not in dry and "output: results/data/production.parquet" in dry
 
 
 def test_the_peers_files_are_read_only_for_the_rows_that_need_them(run_dir, tmp_path):
@@ -643,17 +647,17 @@ def test_the_harness_runs_the_workflows_own_steps_to_the_same_numbers(run_dir):
     results = run_dir / "results"
     config = yaml.safe_load(open(TEST_CONFIG))
     params = files.read_json(results / "tuning/best_params.json")["params"]
-    doe, production = (files.read_checked(results / f"data/{role}.csv") for role in ("doe", "production"))
+    doe, production = (files.read_checked(results / f"data/{role}.parquet") for role in ("doe", "production"))
     run = Run.of_workflow(config, doe, production, params)
 
     def same(ours: pd.DataFrame, path: Path):
-        theirs = pd.read_csv(path)
+        theirs = files.read_checked(path)
         for column in ours.columns:
             np.testing.assert_allclose(ours[column].to_numpy(float), theirs[column].to_numpy(float), rtol=1e-6)
 
-    same(run.support.table, results / "support/production_support.csv")
-    same(run.residuals, results / "residuals/production_residuals.csv")
-    same(run.residual_cv.oof, results / "residuals/oof_filtered.csv")
+    same(run.support.table, results / "support/production_support.parquet")
+    same(run.residuals, results / "residuals/production_residuals.parquet")
+    same(run.residual_cv.oof, results / "residuals/oof_filtered.parquet")
     settings = diagnosis.Settings.from_config(
         {k: v for k, v in run.config["diagnosis"].items() if k != "n_figures"}, 3, 7, "mm", 2
     )
@@ -662,4 +666,4 @@ def test_the_harness_runs_the_workflows_own_steps_to_the_same_numbers(run_dir):
     assert causes.table["cause"].tolist() == written["cause"].tolist()
     np.testing.assert_allclose(causes.table["explained_share"], written["explained_share"], rtol=1e-6)
     extension = run.extension(causes.terms).production
-    same(extension, results / "predictions/extension.csv")
+    same(extension, results / "predictions/extension.parquet")

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.io.errors import InputError
+from hybridtwin.io.files import read_checked
 from hybridtwin.io.reading import CsvFormat, _line, _numeric_extras, load_table, require_columns, warn
 
 
@@ -199,7 +200,7 @@ def load_datasets(config: dict, roles=ROLES) -> dict[str, pd.DataFrame]:
         frames["doe"] = load_doe(paths["doe"], columns, fmt, folds=config["cv"]["folds"], k=config["gate"]["k"])
     copies = config.get("checked_copies", {})
     if "production" in needed and "production" not in roles and "production" in copies:
-        frames["production"] = pd.read_csv(copies["production"], usecols=list(columns.inputs))
+        frames["production"] = read_checked(copies["production"], columns.inputs)
     elif "production" in needed:
         frames["production"] = load_production(paths["production"], columns, fmt)
     if "matched" in needed:
@@ -250,7 +251,10 @@ def warn_matched_outside(matched_in: np.ndarray, paths: dict) -> None:
 def warn_matched_in_production(matched: pd.DataFrame, production: pd.DataFrame, inputs, paths: dict) -> None:
     """Matched cases must stay out of training: warn when one also stands in the production log."""
     inputs = list(inputs)
-    shared = matched[inputs].reset_index().merge(production[inputs], on=inputs, how="inner")["index"].unique()
+    # the few production rows that share a matched case's first input, before the merge: on 10 million rows a
+    # merge on every row took 15 s
+    candidates = production.loc[production[inputs[0]].isin(matched[inputs[0]]), inputs]
+    shared = matched[inputs].reset_index().merge(candidates, on=inputs, how="inner")["index"].unique()
     if len(shared):
         rows = ", ".join(_line(int(i)) for i in sorted(shared))
         warn(

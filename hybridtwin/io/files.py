@@ -20,6 +20,7 @@ import pandas as pd
 
 FLOAT_FORMAT = "%.8g"
 LINES_PER_WRITE = 100_000  # quoted tables: lines joined in Python a batch at a time, not a whole log at once
+ROWS_PER_TEXT = 1_000_000  # rows turned into text (or a Parquet row group) at a time by Arrow
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -97,9 +98,7 @@ def write_csv(
     """
     digits = _significant_digits(float_format)
     with atomic_path(path) as temporary:
-        as_text = _as_arrow_text(frame, digits, sep) if decimal == "." else None
-        if as_text is not None:
-            _write_text_columns(*as_text, temporary, sep)
+        if decimal == "." and _written_by_arrow(frame, digits, sep, temporary):
             return
         if float_format is not None:
             frame = _floats_as_text(frame, float_format, decimal)
@@ -208,28 +207,85 @@ def _needs_quotes(text: str, sep: str) -> bool:
     return re.search(_quoted_pattern(sep), text) is not None
 
 
-def _write_text_columns(columns: dict, quoted: bool, path, sep: str) -> None:
+def _written_by_arrow(frame: pd.DataFrame, digits: int | None, sep: str, path) -> bool:
+    """Write ``frame`` to ``path`` with Arrow, ``ROWS_PER_TEXT`` rows at a time (the text of a whole log at once
+    took gigabytes); False where only pandas' writer writes it right (the file then holds nothing usable)."""
+    with open(path, "wb") as handle:
+        for start in range(0, max(len(frame), 1), ROWS_PER_TEXT):
+            as_text = _as_arrow_text(frame.iloc[start : start + ROWS_PER_TEXT], digits, sep)
+            if as_text is None:
+                return False
+            if start == 0:
+                handle.write((sep.join(as_text[0]) + "\n").encode())  # Arrow would quote the names
+            _write_text_rows(*as_text, handle, sep)
+    return True
+
+
+def _write_text_rows(columns: dict, quoted: bool, handle, sep: str) -> None:
     import pyarrow as pa
     import pyarrow.compute as pc
     import pyarrow.csv as arrow_csv
 
-    with open(path, "wb") as handle:
-        handle.write((sep.join(columns) + "\n").encode())  # Arrow would quote the names
-        if not quoted:
-            options = arrow_csv.WriteOptions(include_header=False, delimiter=sep, quoting_style="none")
-            arrow_csv.write_csv(pa.table(columns), handle, options)
-            return
-        # quoted text, which Arrow's writer refuses unquoted: the lines joined here, a batch at a time
-        lines = pc.binary_join_element_wise(*columns.values(), sep, null_handling="replace")
-        for start in range(0, len(lines), LINES_PER_WRITE):
-            batch = lines.slice(start, LINES_PER_WRITE).to_pylist()
-            handle.write(("\n".join(batch) + "\n").encode())
+    if not quoted:
+        options = arrow_csv.WriteOptions(include_header=False, delimiter=sep, quoting_style="none")
+        arrow_csv.write_csv(pa.table(columns), handle, options)
+        return
+    # quoted text, which Arrow's writer refuses unquoted: the lines joined here, a batch at a time
+    lines = pc.binary_join_element_wise(*columns.values(), sep, null_handling="replace")
+    for start in range(0, len(lines), LINES_PER_WRITE):
+        batch = lines.slice(start, LINES_PER_WRITE).to_pylist()
+        handle.write(("\n".join(batch) + "\n").encode())
+
+
+def write_table(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORMAT) -> None:
+    """A table one step writes for the next: Parquet where ``path`` ends in ``.parquet``, CSV otherwise.
+
+    Floats are rounded as :func:`write_csv` rounds them, so a step reads the same values from either format.
+    Parquet is for the per-part tables between steps: on a log of 10 million parts a CSV took 20-40 s to
+    write and 5-18 s to read, a Parquet file a few seconds, and a step reads only its columns' bytes.
+    """
+    if Path(path).suffix != ".parquet":
+        write_csv(frame, path, float_format)
+        return
+    digits = _significant_digits(float_format)
+    if digits is not None:
+        floats = [name for name in frame.columns if pd.api.types.is_float_dtype(frame[name].dtype)]
+        frame = frame.assign(**{name: rounded_to_significant(frame[name].to_numpy(float), digits) for name in floats})
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = pa.Schema.from_pandas(frame, preserve_index=False)
+    with atomic_path(path) as temporary, pq.ParquetWriter(temporary, schema) as writer:
+        # ROWS_PER_TEXT rows at a time (a row group each): Arrow's copy of a chunk, not of the whole table
+        for start in range(0, len(frame), ROWS_PER_TEXT):
+            chunk = frame.iloc[start : start + ROWS_PER_TEXT]
+            writer.write_table(pa.Table.from_pandas(chunk, schema=schema, preserve_index=False))
 
 
 def read_checked(path, columns=None) -> pd.DataFrame:
-    """Read a table the workflow wrote (a checked copy, say); only ``columns``, in the file's order, if given:
-    on a log of millions of parts a rule holds the columns it uses, not every one."""
+    """Read a table the workflow wrote (a checked copy, say), CSV or Parquet; only ``columns``, in the file's
+    order, if given: on a log of millions of parts a rule holds the columns it uses, not every one."""
+    if Path(path).suffix == ".parquet":
+        return _read_parquet(path, columns)
     return pd.read_csv(path, keep_default_na=False, na_values=[""], usecols=None if columns is None else list(columns))
+
+
+def _read_parquet(path, columns=None) -> pd.DataFrame:
+    import pyarrow.parquet as pq
+
+    source = pq.ParquetFile(path)
+    names = source.schema_arrow.names
+    if columns is not None:
+        missing = [name for name in columns if name not in names]
+        if missing:
+            raise ValueError(f"{str(path)!r} has no column {', '.join(map(repr, missing))}")
+        wanted = set(columns)
+        names = [name for name in names if name in wanted]
+    if not names:
+        return pd.DataFrame(index=pd.RangeIndex(source.metadata.num_rows))
+    # a column at a time, each handed over to pandas as it is read: the 10-million-part checked copy (1.6 GB in
+    # pandas) read with a peak of 2.0 GB, against 3.7 GB with pandas.read_parquet and 3.1 GB converted whole
+    return pd.concat([source.read(columns=[name]).to_pandas(self_destruct=True)[name] for name in names], axis=1)
 
 
 def in_support(table: pd.DataFrame) -> np.ndarray:

@@ -58,7 +58,7 @@ def model_file(part):
     return f"{MODELS}/{registry.FILES[part]}"
 
 
-CHECKED = {role: f"{RESULTS}/data/{role}.csv" for role in ("doe", "production", "matched")}
+CHECKED = {role: f"{RESULTS}/data/{role}.parquet" for role in ("doe", "production", "matched")}
 # what each file is checked against besides itself
 CHECKED_AGAINST = {"doe": [], "production": ["doe"], "matched": ["production"]}
 

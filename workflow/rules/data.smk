@@ -27,7 +27,7 @@ rule validate_inputs:
     input:
         unpack(raw_inputs_of),
     output:
-        table=f"{RESULTS}/data/{{role}}.csv",
+        table=f"{RESULTS}/data/{{role}}.parquet",
         report=f"{RESULTS}/data/validation_{{role}}.txt",
     log:
         log_of("validate_inputs", "_{role}"),
@@ -56,7 +56,7 @@ rule support_gate:
         standardization=f"{MODELS}/doe_standardization.json",
         standardization_table=f"{TABLES}/doe_standardization.csv",
         model=model_file("gate"),
-        production=f"{RESULTS}/support/production_support.csv",
+        production=f"{RESULTS}/support/production_support.parquet",
         figure=report(
             f"{FIGURES}/support_distances.png",
             caption="../report/support_distances.rst",

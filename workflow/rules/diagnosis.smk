@@ -43,14 +43,14 @@ rule model_extension:
         matched=CHECKED["matched"],
         matched_cases=rules.matched_check.output.cases,
         hybrid=rules.predict_production.output.predictions,
-        hybrid_folds=f"{RESULTS}/residuals/oof_filtered.csv",
+        hybrid_folds=f"{RESULTS}/residuals/oof_filtered.parquet",
         summary=rules.diagnose.output.summary,
         best=rules.tune_residual.output.best,
     output:
         table=f"{TABLES}/model_extension.csv",
         extension=model_file("extension"),
         remainder=model_file("remainder"),
-        predictions=f"{RESULTS}/predictions/extension.csv",
+        predictions=f"{RESULTS}/predictions/extension.parquet",
         matched_predictions=f"{RESULTS}/predictions/matched_models.csv",
     log:
         log_of("model_extension"),
@@ -73,7 +73,7 @@ rule production_predictions:
     input:
         hybrid=rules.predict_production.output.predictions,
         extension=rules.model_extension.output.predictions,
-        peers=expand(f"{RESULTS}/peers/{{peer}}_production.csv", peer=PEERS),
+        peers=expand(f"{RESULTS}/peers/{{peer}}_production.parquet", peer=PEERS),
     output:
         predictions=f"{RESULTS}/predictions/production.csv",
     log:

@@ -8,10 +8,10 @@ rule predict_production:
         support=rules.support_gate.output.production,
         filtered_model=model_file("residual_filtered"),
         unfiltered_model=model_file("residual_unfiltered"),
-        filtered_oof=f"{RESULTS}/residuals/oof_filtered.csv",
-        unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.csv",
+        filtered_oof=f"{RESULTS}/residuals/oof_filtered.parquet",
+        unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.parquet",
     output:
-        predictions=f"{RESULTS}/predictions/hybrid.csv",
+        predictions=f"{RESULTS}/predictions/hybrid.parquet",
     log:
         log_of("predict_production"),
     benchmark:

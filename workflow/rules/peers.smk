@@ -8,7 +8,7 @@ rule peer:
         residuals=rules.residuals.output.residuals,
     output:
         model=f"{MODELS}/{registry.PEER_FILE.format(name='{peer}')}",
-        predictions=f"{RESULTS}/peers/{{peer}}_production.csv",
+        predictions=f"{RESULTS}/peers/{{peer}}_production.parquet",
         summary=f"{RESULTS}/peers/{{peer}}.json",
     log:
         log_of("peer", "_{peer}"),

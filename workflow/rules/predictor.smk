@@ -5,7 +5,10 @@ rule prediction_intervals:
     input:
         unpack(demo_truth_inputs),
         **{f"peer_{name}": model_file(name) for name in PEERS},
-        predictions=rules.production_predictions.output.predictions,
+        # predictions/production.csv's parts: that CSV is written for the user, after this step
+        hybrid_predictions=rules.production_predictions.input.hybrid,
+        extension_predictions=rules.production_predictions.input.extension,
+        peer_predictions=rules.production_predictions.input.peers,
         production=CHECKED["production"],
         doe=CHECKED["doe"],
         gate=rules.support_gate.output.model,

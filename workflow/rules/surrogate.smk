@@ -54,7 +54,7 @@ rule residuals:
         support=rules.support_gate.output.production,
         surrogate=rules.surrogate_fit.output.model,
     output:
-        residuals=f"{RESULTS}/residuals/production_residuals.csv",
+        residuals=f"{RESULTS}/residuals/production_residuals.parquet",
     log:
         log_of("residuals"),
     benchmark:
