@@ -82,7 +82,10 @@ def _training(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec
     from hybridtwin.paper.residual import training_rows
 
     rows = training_rows(residual_table["in_support"], training)
-    return rows, production.loc[rows, list(spec.inputs)], residual_table.loc[rows, "residual_approx"].to_numpy(float)
+    X = production[list(spec.inputs)].to_numpy(float)
+    if len(rows) < len(X):  # with every row the matrix itself: a log of millions of parts is not copied twice
+        X = X[rows]
+    return rows, X, residual_table["residual_approx"].to_numpy(float)[rows]
 
 
 def residual_model(production, residual_table, spec: Spec, training: str, params: dict):
@@ -91,7 +94,7 @@ def residual_model(production, residual_table, spec: Spec, training: str, params
 
     _, X, y = _training(production, residual_table, spec, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
-    return model.fit(X.to_numpy(float), y)
+    return model.fit(X, y)
 
 
 @dataclass
