@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.io.files import in_support
+from hybridtwin.io.files import in_support, read_checked, side_by_side
 from hybridtwin.models import registry
 
 
@@ -214,18 +214,12 @@ def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict)
 def read_predictions(hybrid, extension, peers) -> pd.DataFrame:
     """:func:`joined_predictions` of the steps' own files (paths): the table of results/predictions/production.csv,
     which is written for the user, read faster from its parts."""
-    from hybridtwin.io.files import read_checked
-
-    return joined_predictions(read_checked(hybrid), read_checked(extension), [read_checked(path) for path in peers])
+    return side_by_side([read_checked(path) for path in (hybrid, extension, *peers)])
 
 
 def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame, peer_tables) -> pd.DataFrame:
     """results/predictions/production.csv: the hybrids', the extension's and the peers' columns side by side."""
-    parts = [hybrid_table, extension_table, *peer_tables]
-    lengths = {len(part) for part in parts}
-    if len(lengths) != 1:
-        raise RuntimeError(f"prediction tables of different lengths: {sorted(lengths)}")
-    return pd.concat([part.reset_index(drop=True) for part in parts], axis=1)
+    return side_by_side([hybrid_table, extension_table, *peer_tables])
 
 
 def calibrate(predictions, production, doe, spec: Spec, threshold: float, settings: dict, truth=None, units=None):

@@ -65,6 +65,49 @@ def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float
         files.read_checked(tmp_path / "table.parquet", ["x", "missing"])
 
 
+@pytest.mark.parametrize("rows_per_group", [3, 100])
+def test_parquet_tables_joined_into_one_csv_a_row_group_at_a_time_are_their_join(tmp_path, monkeypatch, rows_per_group):
+    from hybridtwin.io import files
+
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", rows_per_group)
+    table = _table_to_write().drop(columns="text")
+    parts = [table[["x"]], table[["n", "flag"]], table[["x"]].rename(columns={"x": "y"}) * 2]
+    paths = [tmp_path / f"part_{i}.parquet" for i in range(len(parts))]
+    for part, path in zip(parts, paths):
+        files.write_table(part, path)
+    whole = []
+    monkeypatch.setattr(files, "read_checked", lambda *args: whole.append(1) or pd.read_parquet(*args))
+    files.write_joined_csv(paths, tmp_path / "joined.csv")
+    assert not whole  # joined a row group at a time, never read whole
+    files.write_csv(files.side_by_side(parts), tmp_path / "expected.csv")
+    assert (tmp_path / "joined.csv").read_bytes() == (tmp_path / "expected.csv").read_bytes()
+
+
+def test_parquet_tables_laid_out_otherwise_or_with_text_only_pandas_writes_are_joined_whole(tmp_path, monkeypatch):
+    from hybridtwin.io import files
+
+    table = pd.DataFrame({"x": [1.5, 2.5, 3.5, 4.5], "text": ["a", "b", "c\rd", "e"]})
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)
+    files.write_table(table[["text"]], tmp_path / "text.parquet")  # a lone carriage return in the second group
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 3)
+    files.write_table(table[["x"]], tmp_path / "x.parquet")  # row groups of 3 and 1 rows against 2 and 2
+    files.write_table(table[["x"]].rename(columns={"x": "y"}), tmp_path / "y.parquet")
+    for paths in (["x.parquet", "text.parquet"], ["y.parquet", "text.parquet"][::-1]):
+        files.write_joined_csv([tmp_path / name for name in paths], tmp_path / "joined.csv")
+        expected = files.side_by_side([pd.read_parquet(tmp_path / name) for name in paths])
+        files.write_csv(expected, tmp_path / "expected.csv")
+        assert (tmp_path / "joined.csv").read_bytes() == (tmp_path / "expected.csv").read_bytes()
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # the same layout, but the text is for pandas' writer
+    files.write_table(table[["x"]], tmp_path / "x2.parquet")
+    files.write_joined_csv([tmp_path / "x2.parquet", tmp_path / "text.parquet"], tmp_path / "joined.csv")
+    files.write_csv(table, tmp_path / "expected.csv")
+    assert (tmp_path / "joined.csv").read_bytes() == (tmp_path / "expected.csv").read_bytes()
+    assert sorted(path.name for path in tmp_path.iterdir() if path.name.startswith(".")) == []  # no leftovers
+    files.write_table(table.iloc[:3], tmp_path / "short.parquet")
+    with pytest.raises(RuntimeError, match="different lengths"):
+        files.write_joined_csv([tmp_path / "x.parquet", tmp_path / "short.parquet"], tmp_path / "bad.csv")
+
+
 def test_write_table_writes_csv_unless_the_path_says_parquet(tmp_path):
     from hybridtwin.io import files
 

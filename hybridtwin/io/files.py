@@ -98,7 +98,8 @@ def write_csv(
     """
     digits = _significant_digits(float_format)
     with atomic_path(path) as temporary:
-        if decimal == "." and _written_by_arrow(frame, digits, sep, temporary):
+        chunks = (frame.iloc[start : start + ROWS_PER_TEXT] for start in range(0, max(len(frame), 1), ROWS_PER_TEXT))
+        if decimal == "." and _written_by_arrow(chunks, digits, sep, temporary):
             return
         if float_format is not None:
             frame = _floats_as_text(frame, float_format, decimal)
@@ -207,15 +208,51 @@ def _needs_quotes(text: str, sep: str) -> bool:
     return re.search(_quoted_pattern(sep), text) is not None
 
 
-def _written_by_arrow(frame: pd.DataFrame, digits: int | None, sep: str, path) -> bool:
-    """Write ``frame`` to ``path`` with Arrow, ``ROWS_PER_TEXT`` rows at a time (the text of a whole log at once
-    took gigabytes); False where only pandas' writer writes it right (the file then holds nothing usable)."""
+class _OnlyPandasWritesIt(Exception):
+    pass
+
+
+def write_joined_csv(paths, path, float_format: str | None = FLOAT_FORMAT) -> None:
+    """The Parquet tables at ``paths`` (the same rows, in the same row groups) side by side in one CSV file, as
+    :func:`write_csv` writes their join, a row group at a time: a table of 10 million parts is never whole in
+    memory. Tables laid out otherwise, or that only pandas' writer writes right, are joined whole."""
+    import pyarrow.parquet as pq
+
+    sources = [pq.ParquetFile(source) for source in paths]
+    layouts = {tuple(source.metadata.row_group(i).num_rows for i in range(source.num_row_groups)) for source in sources}
+    layout = layouts.pop()
+    if not layouts and sum(layout) > 0:
+        chunks = (
+            pd.concat([source.read_row_group(i).to_pandas() for source in sources], axis=1) for i in range(len(layout))
+        )
+        try:
+            with atomic_path(path) as temporary:
+                if not _written_by_arrow(chunks, _significant_digits(float_format), ",", temporary):
+                    raise _OnlyPandasWritesIt  # nothing is left at ``path``
+            return
+        except _OnlyPandasWritesIt:
+            pass
+    write_csv(side_by_side([read_checked(source) for source in paths]), path, float_format)
+
+
+def side_by_side(tables) -> pd.DataFrame:
+    """Tables of the same rows, their columns side by side."""
+    lengths = {len(table) for table in tables}
+    if len(lengths) != 1:
+        raise RuntimeError(f"tables of different lengths: {sorted(lengths)}")
+    return pd.concat([table.reset_index(drop=True) for table in tables], axis=1)
+
+
+def _written_by_arrow(chunks, digits: int | None, sep: str, path) -> bool:
+    """Write the tables ``chunks`` (the rows of one table, in order, the first for the header) to ``path`` with
+    Arrow, a chunk at a time (the text of a whole log at once took gigabytes); False where only pandas' writer
+    writes a chunk right (the file then holds nothing usable)."""
     with open(path, "wb") as handle:
-        for start in range(0, max(len(frame), 1), ROWS_PER_TEXT):
-            as_text = _as_arrow_text(frame.iloc[start : start + ROWS_PER_TEXT], digits, sep)
+        for number, chunk in enumerate(chunks):
+            as_text = _as_arrow_text(chunk, digits, sep)
             if as_text is None:
                 return False
-            if start == 0:
+            if number == 0:
                 handle.write((sep.join(as_text[0]) + "\n").encode())  # Arrow would quote the names
             _write_text_rows(*as_text, handle, sep)
     return True
