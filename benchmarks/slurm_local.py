@@ -15,9 +15,9 @@
 4. Checks the SLURM run: every job ran as a SLURM job and completed, the two tuning jobs ran at the same
    time on one study, each ran trials, and no trial was lost.
 5. Runs the same workflow locally (``--cores``, the same threads per job) on the SLURM run's tuning study,
-   and checks that every table (every CSV under ``results/``) is byte-identical to the SLURM run's. Two
-   workers running at once make the trials the study tries depend on which trial ends first, so a fresh
-   study would differ (docs/cluster.md); everything else must be equal.
+   and checks that every table (every CSV and Parquet file under ``results/``) is byte-identical to the
+   SLURM run's. Two workers running at once make the trials the study tries depend on which trial ends
+   first, so a fresh study would differ (docs/cluster.md); everything else must be equal.
 6. Stops the cluster, also on a failure or Ctrl-C, and checks that none of its processes is left.
 
 The runs are in ``runs/slurm_local/`` (``slurm/`` and ``local/``, each with its Snakemake log); this
@@ -432,10 +432,12 @@ def step_times(log: Log, cluster: Cluster, work: Path) -> None:
 
 
 def compare_tables(log: Log, ours: Path, theirs: Path) -> None:
-    tables = {path.relative_to(ours) for path in ours.rglob("*.csv")}
-    others = {path.relative_to(theirs) for path in theirs.rglob("*.csv")}
+    def tables_in(folder: Path) -> set[Path]:
+        return {path.relative_to(folder) for kind in ("*.csv", "*.parquet") for path in folder.rglob(kind)}
+
+    tables, others = tables_in(ours), tables_in(theirs)
     differ = sorted(str(path) for path in tables & others if not filecmp.cmp(ours / path, theirs / path, shallow=False))
-    log(f"tables (CSV files under results/): {len(tables)} in the SLURM run, {len(others)} in the local run")
+    log(f"tables (CSV and Parquet under results/): {len(tables)} in the SLURM run, {len(others)} in the local run")
     for path in sorted(tables ^ others):
         log(f"  only in one run: {path}")
     for path in differ:
