@@ -70,7 +70,8 @@ def run_extension(workdir: Path, config: dict, points: np.ndarray, inputs: list[
             symlinks=True,
             ignore=shutil.ignore_patterns("log", "incomplete", "locks", "conda", "singularity"),
         )
-        (folder / "config.yaml").write_text(yaml.safe_dump(config))
+        # named, or the run would write a fresh results/config/ beside the copied run (a plant's own config file)
+        (folder / "config.yaml").write_text(yaml.safe_dump({**config, "results_dir": "results"}))
         doe_path = folder / config["data"]["doe"]
         doe = pd.read_csv(doe_path)
         new = pd.DataFrame(points, columns=inputs)
