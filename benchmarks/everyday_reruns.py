@@ -60,7 +60,7 @@ def planned(workdir: Path, config: Path) -> list[str]:
     for rule, outputs in jobs:
         if rule == "all":
             continue
-        role = re.search(r"data/(doe|production|matched)\.csv", outputs) if rule == "validate_inputs" else None
+        role = re.search(r"data/(doe|production|matched)\.parquet", outputs) if rule == "validate_inputs" else None
         peer = re.search(r"peer_(\w+)\.json", outputs) if rule == "peer" else None
         names.append(f"{rule} ({role.group(1)})" if role else f"{rule} ({peer.group(1)})" if peer else rule)
     return sorted(set(names))

@@ -670,7 +670,7 @@ def test_workflow_stops_on_a_decimal_comma_export_and_leaves_no_output(case):
         assert word in result.stderr, result.stderr
     assert "Traceback" not in result.stderr.split("RuleException")[0]
     assert sha256(case.settings["data"].values()) == before
-    assert list((case.folder / "results").glob("data/*.csv")) == []
+    assert list((case.folder / "results").glob("data/*.parquet")) == []
 
 
 @pytest.mark.workflow
@@ -688,8 +688,8 @@ def test_workflow_stops_on_a_missing_value(case):
     # Files are checked one by one: the bad file leaves no checked copy, and a good file checked
     # in the same run (whether it ran first depends on the scheduler) is complete.
     checked = case.folder / "results" / "data"
-    assert not (checked / "production.csv").exists()
+    assert not (checked / "production.parquet").exists()
     for role in ("doe", "matched"):
-        if (checked / f"{role}.csv").exists():
-            assert len(pd.read_csv(checked / f"{role}.csv")) == len(pd.read_csv(case.settings["data"][role]))
+        if (checked / f"{role}.parquet").exists():
+            assert len(pd.read_parquet(checked / f"{role}.parquet")) == len(pd.read_csv(case.settings["data"][role]))
     assert list(checked.glob(".*")) == []

@@ -108,6 +108,26 @@ def test_parquet_tables_laid_out_otherwise_or_with_text_only_pandas_writes_are_j
         files.write_joined_csv([tmp_path / "x.parquet", tmp_path / "short.parquet"], tmp_path / "bad.csv")
 
 
+def test_a_checked_copy_in_parquet_has_the_types_its_csv_had(tmp_path):
+    """The checked copies were CSV files: their text columns of True/False, of numbers and blanks, and their empty
+    texts reached the later steps as pandas' CSV reader types them, and still do."""
+    from hybridtwin.io import files
+
+    text = {
+        "flag": ["True", "False", "True"],
+        "counter": ["1.5", "", "2"],
+        "coil": ["K1", "", "K3"],
+        "shift": ["A", "B", "A"],
+    }
+    columns = {name: pd.array(values, dtype="str") for name, values in text.items()}
+    frame = pd.DataFrame({"x": [1.0, 2.0, 3.0], **columns})
+    files.write_csv(frame, tmp_path / "copy.csv", float_format=None)
+    files.write_table(files.as_csv_reads_it(frame), tmp_path / "copy.parquet", float_format=None)
+    as_csv, as_parquet = (files.read_checked(tmp_path / f"copy.{kind}") for kind in ("csv", "parquet"))
+    pd.testing.assert_frame_equal(as_parquet, as_csv)
+    assert as_parquet["flag"].dtype == bool and as_parquet["counter"].dtype == float and as_parquet["coil"].isna()[1]
+
+
 def test_write_table_writes_csv_unless_the_path_says_parquet(tmp_path):
     from hybridtwin.io import files
 
