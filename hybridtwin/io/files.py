@@ -20,7 +20,7 @@ import pandas as pd
 
 FLOAT_FORMAT = "%.8g"
 LINES_PER_WRITE = 100_000  # quoted tables: lines joined in Python a batch at a time, not a whole log at once
-ROWS_PER_TEXT = 1_000_000  # rows turned into text (or a Parquet row group) at a time by Arrow
+ROWS_PER_CHUNK = 1_000_000  # rows Arrow turns into CSV text, or writes as one Parquet row group, at a time
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -98,7 +98,7 @@ def write_csv(
     """
     digits = _significant_digits(float_format)
     with atomic_path(path) as temporary:
-        chunks = (frame.iloc[start : start + ROWS_PER_TEXT] for start in range(0, max(len(frame), 1), ROWS_PER_TEXT))
+        chunks = (frame.iloc[start : start + ROWS_PER_CHUNK] for start in range(0, max(len(frame), 1), ROWS_PER_CHUNK))
         if decimal == "." and _written_by_arrow(chunks, digits, sep, temporary):
             return
         if float_format is not None:
@@ -293,9 +293,9 @@ def write_table(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORM
 
     schema = pa.Schema.from_pandas(frame, preserve_index=False)
     with atomic_path(path) as temporary, pq.ParquetWriter(temporary, schema) as writer:
-        # ROWS_PER_TEXT rows at a time (a row group each): Arrow's copy of a chunk, not of the whole table
-        for start in range(0, len(frame), ROWS_PER_TEXT):
-            chunk = frame.iloc[start : start + ROWS_PER_TEXT]
+        # ROWS_PER_CHUNK rows at a time (a row group each): Arrow's copy of a chunk, not of the whole table
+        for start in range(0, len(frame), ROWS_PER_CHUNK):
+            chunk = frame.iloc[start : start + ROWS_PER_CHUNK]
             writer.write_table(pa.Table.from_pandas(chunk, schema=schema, preserve_index=False))
 
 
@@ -309,8 +309,9 @@ def as_csv_reads_it(frame: pd.DataFrame) -> pd.DataFrame:
         if not (pd.api.types.is_string_dtype(column.dtype) or column.dtype == object):
             continue
         if _read_back(column.iloc[:100]).dtype == column.dtype:  # a text column shows it early
-            if (column == "").any():
-                typed[name] = column.mask(column == "")
+            empty = column == ""
+            if empty.any():
+                typed[name] = column.mask(empty)
             continue
         typed[name] = _read_back(column)
 
