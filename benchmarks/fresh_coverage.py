@@ -4,7 +4,8 @@ For each plant (the demo generator and the other plant families, drawn with comm
 first N parts and the fresh parts are the 8,000 that follow (the same plant, a later period: new coils, new
 campaigns). The real workflow runs on the log (snakemake, a config of the user's kind); ``hybridtwin``'s frozen
 predictor then answers the fresh parts, and each region's coverage of their measured values is counted with its
-95% Clopper-Pearson interval, beside the trust verdicts. Usage:
+95% Clopper-Pearson interval, beside the trust verdicts and the daily check's verdict on the same parts
+(``hybridtwin monitor``: the first part at which it says the plant no longer matches the models, if any). Usage:
 
     python benchmarks/fresh_coverage.py --plants 8 --seed 1          # about 2 minutes a plant, alone on 2 cores
 
@@ -30,6 +31,7 @@ from hybridtwin import demo
 from hybridtwin.answers.coverage import clopper_pearson
 from hybridtwin.answers.predictor import Predictor
 from hybridtwin.demo import families
+from hybridtwin.monitor import watch
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "benchmarks" / "results"
@@ -119,6 +121,15 @@ def summary(table: pd.DataFrame) -> str:
             f"| {region} | {rows['plant'].nunique()} | {n:,} | {k / n:.1%} | {low:.1%} to {high:.1%} | "
             f"{rows['coverage'].min():.1%} | {rows['mean_width'].mean():.2f} |"
         )
+    lines += ["", "| plant | log | worst region | the daily check on the fresh parts |", "|---|---:|---|---|"]
+    for plant, rows in table.groupby("plant", sort=False):
+        worst = rows.loc[rows["coverage"].idxmin()]
+        alarm = rows["monitor_alarm_at"].iloc[0]
+        said = "no alarm" if np.isnan(alarm) else f"alarm at part {alarm:,.0f}"
+        lines.append(
+            f"| {plant} | {rows['n_log'].iloc[0]:,} | {worst['region']} {worst['coverage']:.1%} of "
+            f"{worst['n_fresh']:,} | {said} |"
+        )
     return "\n".join(lines)
 
 
@@ -135,10 +146,14 @@ def main() -> None:
             models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
             predictor = Predictor.load(models)
             answers = predictor.predict(fresh, all_models=True)
+            alarm_at = watch.watch(predictor, fresh, explain=False).chart.alarm_at
         found = coverage_rows(name, len(log), answers, fresh[target].to_numpy(float), predictor.level)
+        for row in found:  # the monitor's first alarm (1-based part of the fresh period), NaN: none
+            row["monitor_alarm_at"] = np.nan if alarm_at is None else alarm_at + 1
         rows += found
-        print(f"{name:28s} log {len(log):>6,}: " + "; ".join(
-            f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found), flush=True)  # fmt: skip
+        alarm = "no alarm" if alarm_at is None else f"monitor alarm at part {alarm_at + 1:,}"
+        covered = "; ".join(f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found)
+        print(f"{name:28s} log {len(log):>6,}: {covered}; {alarm}", flush=True)
     table = pd.DataFrame(rows)
     print(write_results(OUT, "fresh_coverage", "Intervals on the next production period", table, summary(table)))
 
