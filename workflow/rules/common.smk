@@ -58,6 +58,12 @@ def model_file(part):
     return f"{MODELS}/{registry.FILES[part]}"
 
 
+def oof_file(training):
+    """The residual model's out-of-fold predictions and folds (rule residual_cv) for a training set, or for
+    the wildcard ``{training}``."""
+    return f"{RESULTS}/residuals/oof_{training}.parquet"
+
+
 CHECKED = {role: f"{RESULTS}/data/{role}.parquet" for role in ("doe", "production", "matched")}
 # what each file is checked against besides itself
 CHECKED_AGAINST = {"doe": [], "production": ["doe"], "matched": ["production"]}

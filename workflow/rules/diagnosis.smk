@@ -43,7 +43,7 @@ rule model_extension:
         matched=CHECKED["matched"],
         matched_cases=rules.matched_check.output.cases,
         hybrid=rules.predict_production.output.predictions,
-        hybrid_folds=f"{RESULTS}/residuals/oof_filtered.parquet",
+        hybrid_folds=oof_file("filtered"),
         summary=rules.diagnose.output.summary,
         best=rules.tune_residual.output.best,
     output:

@@ -8,8 +8,8 @@ rule predict_production:
         support=rules.support_gate.output.production,
         filtered_model=model_file("residual_filtered"),
         unfiltered_model=model_file("residual_unfiltered"),
-        filtered_oof=f"{RESULTS}/residuals/oof_filtered.parquet",
-        unfiltered_oof=f"{RESULTS}/residuals/oof_unfiltered.parquet",
+        filtered_oof=oof_file("filtered"),
+        unfiltered_oof=oof_file("unfiltered"),
     output:
         predictions=f"{RESULTS}/predictions/hybrid.parquet",
     log:

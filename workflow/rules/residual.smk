@@ -78,7 +78,7 @@ rule residual_cv:
         best=rules.tune_residual.output.best,
     output:
         folds=f"{RESULTS}/residuals/cv_folds_{{training}}.csv",
-        oof=f"{RESULTS}/residuals/oof_{{training}}.parquet",
+        oof=oof_file("{training}"),
         table=f"{RESULTS}/residuals/cv_{{training}}.csv",
     log:
         log_of("residual_cv", "_{training}"),
