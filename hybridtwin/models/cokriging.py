@@ -158,6 +158,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         n_searches: int = 3,
         corr: str = "squar_exp",
         hyper_opt: str = "Cobyla",
+        theta_low: float = 1e-6,
         random_state: int = 0,
     ):
         self.n_high = n_high
@@ -166,6 +167,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
         self.n_searches = n_searches
         self.corr = corr
         self.hyper_opt = hyper_opt
+        self.theta_low = theta_low
         self.random_state = random_state
 
     def _options(self, seed: int | None = None) -> dict:
@@ -176,7 +178,7 @@ class CoKriging(RegressorMixin, BaseEstimator):
             "hyper_opt": self.hyper_opt,
             "n_start": self.n_start,
             "theta0": [1.0],
-            "theta_bounds": [1e-6, 20.0],
+            "theta_bounds": [self.theta_low, 20.0],
             "seed": seed,
             "print_global": False,
         }
