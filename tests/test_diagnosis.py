@@ -123,8 +123,10 @@ def test_the_summary_holds_what_later_steps_read():
         "explained_by",
         "skipped",
         "proxies",
+        "too_small",
     ]
     assert (summary["n_rows"], summary["surrogate_std"], summary["min_effect"]) == (600, 0.1, 0.1)
+    assert summary["too_small"] == []  # the cause is chosen, not too small
     assert summary["offset"] == pytest.approx(residual.mean())
     assert summary["residual_std"] == pytest.approx(np.std(residual - residual.mean()))
     (chosen,) = summary["selected"]
@@ -173,6 +175,23 @@ def test_the_summary_holds_what_later_steps_read():
     chosen_fit = result.selected[0]
     assert (row["conditional_share"], row["p_value"]) == (chosen_fit.explained_share, chosen_fit.p_value)
     assert (row["effect_range"], row["effect_std"]) == (chosen_fit.effect_range, chosen_fit.effect_std)
+
+
+def test_an_effect_the_test_finds_within_the_surrogates_uncertainty_is_too_small_to_tell_not_named():
+    frame, residual = _linear_plant(600)  # a slope of 4 over [0, 1]: 1.15 std
+    result = diagnosis.diagnose(frame[["x"]], residual, ["x"], [], Settings(interactions=False), surrogate_std=2.0)
+    summary = json.loads(json.dumps(diagnosis.summary_dict(result)))
+    assert summary["selected"] == []
+    (small,) = summary["too_small"]
+    assert (small["name"], small["kind"], small["form"]) == ("x", "input", "linear")
+    assert small["effect_std"] == pytest.approx(4 / np.sqrt(12), rel=0.1) and small["p_value"] < 1e-6
+    row = result.table.set_index("cause").loc["x"]
+    assert not row["significant"] and row["note"].startswith("too small to tell from the surrogate's own error")
+    assert "1.15 mm (std), within the surrogate's own uncertainty 2.00 mm" in row["note"]
+    # an effect no larger that the test does not find (noise ten times the slope's) is not too small: not found
+    noisy = 5.0 + 4.0 * frame["x"].to_numpy() + np.random.default_rng(1).normal(0, 12.0, len(frame))
+    result = diagnosis.diagnose(frame[["x"]], noisy, ["x"], [], Settings(interactions=False), surrogate_std=2.0)
+    assert result.too_small == []
 
 
 def test_the_summary_names_the_cause_an_id_stands_for():

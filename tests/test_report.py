@@ -81,6 +81,18 @@ def test_says_plainly_when_nothing_is_significant():
     says(text, "No cause beyond the offset is significant", "not significant", "`die_temp_c`")
 
 
+def test_an_effect_within_the_surrogates_uncertainty_is_said_too_small_to_tell_and_not_named():
+    small = [{"name": "ambient_temp_c", "form": "quadratic", "effect_std": 0.61, "p_value": 2e-8}]
+    alone = {**_summary(2.0, selected=False), "too_small": small}
+    text = diagnosis_markdown(CAUSES, alone, GAIN, "draw-in", "mm", None, "runs/p4/figures")
+    says(text, "No cause beyond the offset is significant", "Too small to tell from the surrogate's own error")
+    says(text, "`ambient_temp_c`", "quadratic", "0.61 mm std", "less than the surrogate's own uncertainty (1.00 mm")
+    assert "Strongest candidate, not significant" not in text and "beyond the causes above" not in text
+    text = diagnosis_markdown(CAUSES, {**_summary(2.0), "too_small": small}, GAIN, "draw-in", "mm", None, "f")
+    says(text, "1. **`die_temp_c`**", "Too small to tell", "beyond the causes above, the test finds `ambient_temp_c`")
+    assert "Too small" not in diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "draw-in", "mm", None, "f")
+
+
 def test_user_names_are_inert_in_markdown_and_html():
     text = diagnosis_markdown(CAUSES, _summary(2.0), GAIN, "Einzug <b>mm</b>", "m<i>m</i>", None, "figures")
     assert "<b>" not in text.replace("`Einzug <b>mm</b>`", "") and "<i>" not in text
@@ -108,3 +120,12 @@ def test_report_pages_escape_names_give_human_headers_and_units():
     assert "<th>blank_width_mm</th>" in own
     words = pages.markdown_page("# Title\n\n| a | b |\n|---|---|\n| `x` | 2 |\n", "Diagnosis", "results/diagnosis.md")
     assert "<h1>Title</h1>" in words and "<td><code>x</code></td>" in words
+
+
+def test_the_front_page_says_an_effect_is_too_small_to_tell():
+    from hybridtwin.report import summary
+
+    small = [{"name": "ambient_temp_c", "form": "quadratic", "effect_std": 0.61, "p_value": 2e-8}]
+    lines = summary._errors({**_summary(2.0, selected=False), "too_small": small}, "draw-in", "mm")
+    says("\n".join(lines), "none beyond the offset", "Too small to tell", "``ambient_temp_c``", "0.61 mm (std)")
+    assert not any("Too small" in line for line in summary._errors(_summary(2.0, selected=False), "draw-in", "mm"))

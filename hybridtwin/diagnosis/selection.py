@@ -32,7 +32,7 @@ from hybridtwin.diagnosis.ids import id_stands
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
 from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE, SMOOTH_SHARE_OF_ID
 from hybridtwin.diagnosis.settings import Settings
-from hybridtwin.diagnosis.table import Found, causes_table
+from hybridtwin.diagnosis.table import Found, causes_table, too_small
 from hybridtwin.metrics import block_means
 
 
@@ -52,6 +52,7 @@ class Diagnosis:
     aliases: dict[str, list[str]] = field(default_factory=dict)
     explained_by: dict[str, str] = field(default_factory=dict)
     proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
+    too_small: list[Fit] = field(default_factory=list)  # found by the test but within the surrogate's uncertainty
 
     @property
     def terms(self) -> tuple[Term, ...]:
@@ -307,4 +308,5 @@ def diagnose(
         aliases,
         explained_by,
         selection.proxies,
+        too_small(found, rules),
     )

@@ -10,13 +10,15 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.diagnosis import forms
-from hybridtwin.diagnosis.fits import Rules
+from hybridtwin.diagnosis.fits import Rules, is_significant
 from hybridtwin.diagnosis.wording import accounted_words
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis
 
 log = logging.getLogger(__name__)
+
+TOO_SMALL_SHOWN = 3  # candidates too small to tell from the surrogate's own error, named in the summary
 
 
 @dataclass(frozen=True)
@@ -32,9 +34,30 @@ class Found:
     proxies: dict
 
 
+def too_small(found: Found, rules: Rules) -> list:
+    """The candidates the significance test finds, given the chosen causes, whose effect is within the surrogate's
+    own uncertainty (std at most ``rules.min_effect``): too small to tell from the surrogate's own error. Ids
+    accounted for and neighbours of a chosen cause are left out (the report says what they are). Best first."""
+    if rules.min_effect <= 0:
+        return []
+    left_out = {fit.candidate.name for fit in found.chosen} | set(found.proxies) | set(found.explained_by)
+    left_out |= {name for names in found.aliases.values() for name in names}
+    chosen_columns = {column for fit in found.chosen for column in fit.candidate.columns}
+    small = [
+        fit
+        for name, fit in found.conditional.items()
+        if name not in left_out
+        and not set(fit.candidate.columns) & chosen_columns
+        and fit.effect_std <= rules.min_effect
+        and is_significant(fit, rules.n_tests, rules.settings, min_effect=0.0)
+    ]
+    return sorted(small, key=lambda fit: (fit.score, fit.candidate.name))
+
+
 def causes_table(found: Found, skipped: dict, rules: Rules) -> pd.DataFrame:
     """discrepancy_causes.csv: every candidate, the chosen causes first (in the order chosen), then by share."""
-    table = pd.DataFrame([_row(name, fit, found, rules) for name, fit in found.marginal.items()])
+    small = {fit.candidate.name for fit in too_small(found, rules)}
+    table = pd.DataFrame([_row(name, fit, found, rules, small) for name, fit in found.marginal.items()])
     order = {fit.candidate.name: i for i, fit in enumerate(found.chosen)}
     table["_chosen"] = table["cause"].map(order).fillna(len(order))
     table = table.sort_values(
@@ -46,7 +69,7 @@ def causes_table(found: Found, skipped: dict, rules: Rules) -> pd.DataFrame:
     return table.reset_index(drop=True)
 
 
-def _row(name: str, fit, found: Found, rules: Rules) -> dict:
+def _row(name: str, fit, found: Found, rules: Rules, small: set) -> dict:
     final = next((s for s in found.chosen if s.candidate.name == name), None)
     if final is not None:
         # the marginal scores of the form that was chosen, which may not be the best-scoring one
@@ -73,8 +96,17 @@ def _row(name: str, fit, found: Found, rules: Rules) -> dict:
         "description": form.describe(
             name, rules.settings.unit, fit.candidate.cause.unit(dict(rules.settings.input_units))
         ),
-        "note": _note(name, fit, form, significant, found),
+        "note": _note(name, fit, form, significant, found)
+        or (_too_small_note(scored.effect_std, rules) if name in small else ""),
     }
+
+
+def _too_small_note(effect_std: float, rules: Rules) -> str:
+    unit = rules.settings.unit
+    return (
+        f"too small to tell from the surrogate's own error: significant, but it moves the residual by "
+        f"{effect_std:.2f} {unit} (std), within the surrogate's own uncertainty {rules.min_effect:.2f} {unit}"
+    )
 
 
 def _note(name: str, fit, form, significant: bool, found: Found) -> str:
@@ -134,4 +166,16 @@ def summary_dict(result: Diagnosis) -> dict:
         "proxies": {
             name: {"accounted_by": list(names), "share": share} for name, (names, share) in result.proxies.items()
         },
+        # found by the test, given the chosen causes, but within the surrogate's own uncertainty (best first)
+        "too_small": [
+            {
+                "name": f.candidate.name,
+                "kind": f.candidate.kind,
+                "form": f.form.name,
+                "explained_share": f.explained_share,
+                "effect_std": f.effect_std,
+                "p_value": f.p_value,
+            }
+            for f in result.too_small[:TOO_SMALL_SHOWN]
+        ],
     }

@@ -54,7 +54,8 @@ def diagnosis_markdown(
     lines = [f"# What the simulation gets wrong: {code(target)}", ""]
     lines += _data(summary, unit)
     lines += _offset(summary, target, unit)
-    lines += _causes(causes, summary["selected"], target, unit, figures)
+    lines += _causes(causes, summary, target, unit, figures)
+    lines += _too_small(summary, unit)
     lines += _not_separated(summary)
     lines += _gain(gain, unit)
     if demo_spec is not None:
@@ -99,8 +100,8 @@ def _offset(summary: dict, target: str, unit: str) -> list[str]:
     ]
 
 
-def _causes(causes: pd.DataFrame, selected: list[dict], target: str, unit: str, figures: str) -> list[str]:
-    lines = ["## Causes", ""]
+def _causes(causes: pd.DataFrame, summary: dict, target: str, unit: str, figures: str) -> list[str]:
+    lines, selected = ["## Causes", ""], summary["selected"]
     if not selected:
         lines += [
             "**No cause beyond the offset is significant.** No candidate column explains the in-support "
@@ -108,7 +109,7 @@ def _causes(causes: pd.DataFrame, selected: list[dict], target: str, unit: str, 
             "uncertainty. The simulation's error here is a constant offset (plus noise).",
             "",
         ]
-        if len(causes):
+        if len(causes) and not summary.get("too_small"):  # else the strongest found is named as too small
             top = causes.iloc[0]
             lines += [
                 f"Strongest candidate, not significant: {code(top['cause'])} ({top['form']}, explains "
@@ -127,6 +128,24 @@ def _causes(causes: pd.DataFrame, selected: list[dict], target: str, unit: str, 
             f"data, p = {cause['p_value']:.2g}. Figure: `{figures}/cause_{rank}.png`."
         )
     return lines + [""]
+
+
+def _too_small(summary: dict, unit: str) -> list[str]:
+    """Effects the test finds that are within the surrogate's own uncertainty: said as such, not named."""
+    small = summary.get("too_small", [])
+    if not small:
+        return []
+    found = "; ".join(
+        f"{code(c['name'])} ({c['form']}, {c['effect_std']:.2f} {unit} std, p = {c['p_value']:.2g})" for c in small
+    )
+    beyond = "beyond the causes above, " if summary["selected"] else ""
+    return [
+        f"**Too small to tell from the surrogate's own error:** {beyond}the test finds {found}, but each moves the "
+        f"residual by less than the surrogate's own uncertainty ({summary['min_effect']:.2f} {unit} std). Such an "
+        "effect may be the plant's or the surrogate's own error; more simulations near the production settings "
+        "would tell them apart.",
+        "",
+    ]
 
 
 def _not_separated(summary: dict) -> list[str]:

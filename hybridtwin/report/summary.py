@@ -48,6 +48,11 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
             f"* **Causes**: none beyond the offset is significant: no logged column moves the residual by more than "
             f"the surrogate's own uncertainty ({diagnosis['min_effect']:.2f} {unit})."
         )
+    for small in diagnosis.get("too_small", [])[:1]:
+        lines.append(
+            f"* **Too small to tell from the surrogate's own error**: ``{small['name']}`` moves the residual by "
+            f"{small['effect_std']:.2f} {unit} (std), within the surrogate's own uncertainty."
+        )
     for rank, cause in enumerate(diagnosis["selected"], start=1):
         lines.append(
             f"* **Cause {rank}**: ``{cause['name']}``, {_rst(cause['description'])} (explains "
