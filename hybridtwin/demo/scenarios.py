@@ -155,6 +155,7 @@ class Outcome:
     confounding: str = ""
     extension_stands: bool = True  # the guard kept the extended hybrid out of the support
     tolerated: tuple[str, ...] = ()  # causes put in below the detection limit: naming one is no error
+    too_small: tuple[str, ...] = ()  # cause/form found by the test but within the surrogate's uncertainty: not named
 
     @property
     def top_monotone(self) -> bool:
@@ -376,6 +377,7 @@ def evaluate(
         case.confounding,
         models.out_of_support,
         case.hidden_causes,
+        tuple(f"{fit.candidate.name}/{fit.form.name}" for fit in result.too_small),
     )
 
 
