@@ -194,6 +194,22 @@ def test_an_effect_the_test_finds_within_the_surrogates_uncertainty_is_too_small
     assert result.too_small == []
 
 
+def test_beside_a_chosen_cause_only_small_effects_of_other_columns_are_too_small():
+    rng = np.random.default_rng(3)
+    frame = pd.DataFrame({"x": rng.uniform(0, 1, 800), "z": rng.uniform(0, 1, 800)})
+    noise = rng.normal(0, 0.3, len(frame))
+
+    def found(residual, **settings):
+        result = diagnosis.diagnose(frame, residual.to_numpy(), ["x", "z"], [], Settings(**settings), surrogate_std=0.6)
+        assert [fit.candidate.name for fit in result.selected] == ["x"]
+        return [(fit.candidate.name, fit.form.name) for fit in result.too_small]
+
+    # x*z passes the test once x is in, but it holds the chosen cause's column: z alone is what is too small
+    assert found(4.0 * frame["x"] + 1.5 * frame["x"] * frame["z"] + noise) == [("z", "linear")]
+    # a cause larger than the surrogate's uncertainty left out by max_causes is not too small
+    assert found(4.0 * frame["x"] + 3.0 * frame["z"] + noise, max_causes=1) == []
+
+
 def test_the_summary_names_the_cause_an_id_stands_for():
     result = diagnosis.Diagnosis(
         0.0, 0.1, 3, 1.0, 0.2, 0.2, pd.DataFrame({"cause": [], "description": []}), None, {}, {}
