@@ -8,6 +8,8 @@ in-support parts of the workflow's gate (the in-memory steps), once per setting:
   unseen periods of the ``n_fit`` parts best are kept (the default now);
 - ``3 searches, 500 parts`` and ``3 searches, 600 parts``: the same, fitted on the parts searched on (the plain
   MFK's 600 parts, the same seeded draw, in the second);
+- ``3 searches, theta >= 1e-3`` and ``... 1e-2``: the default with the length-scale parameters' lower bound raised
+  from SMT's 1e-6 (``CoKriging(theta_low=...)``);
 
 beside the plain SMT MFK (``plain_baselines.PlainMFK``). Scored as ``bifidelity.py`` scores: the truth-RMSE over the
 noise, out of period on the parts a model trained on, the final model elsewhere; in support and out of it, and in

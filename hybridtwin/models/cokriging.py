@@ -148,7 +148,10 @@ def ar1_mean(state: dict, X: np.ndarray) -> np.ndarray:
 
 
 class CoKriging(RegressorMixin, BaseEstimator):
-    """AR1 co-kriging: ``fit(X_high, y_high, X_low=DoE inputs, y_low=simulated)``; ``predict`` gives the target."""
+    """AR1 co-kriging: ``fit(X_high, y_high, X_low=DoE inputs, y_low=simulated)``; ``predict`` gives the target.
+
+    ``theta_low``: the length-scale parameters' lower bound, SMT's own; the discrepancy's often sit there (a
+    near-constant discrepancy), and raising it extrapolated worse (benchmarks/results/cokriging_theta_dev.md)."""
 
     def __init__(
         self,
