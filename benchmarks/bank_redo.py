@@ -64,8 +64,8 @@ def report(bank: pd.DataFrame, redone: pd.DataFrame, which: str) -> str:
     lines = [
         f"plants rerun: {len(redone)} of {len(bank)} ({which})",
         f"right answers over the bank: {int(bank['answer_ok'].sum())} -> {right} of {len(bank)}",
-        f"an id named on plants without an id effect: {int(bank.loc[bank['kind'] != 'coil', 'id_named'].sum())} -> "
-        f"{int(redone.loc[no_id_effect, 'id_after'].sum())}",
+        f"an id named on the plants rerun without an id effect: {int(redone.loc[no_id_effect, 'id_before'].sum())} "
+        f"-> {int(redone.loc[no_id_effect, 'id_after'].sum())}",
         "right answers per kind, among the plants rerun (before -> after): "
         + ", ".join(
             f"{kind} {int(g['before'].sum())} -> {int(g['after'].sum())} of {len(g)}"
