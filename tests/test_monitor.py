@@ -84,6 +84,18 @@ def test_regimes_begin_where_a_coil_or_shift_changes_or_an_input_jumps_and_not_a
     assert labels[0] == labels[1] != labels[2] and labels[3] == labels[5] != labels[4] and labels[0] != labels[3]
 
 
+def test_a_stretch_of_blank_ids_is_one_regime_and_a_change_of_id_is_found_beside_it():
+    from hybridtwin.monitor.changes import boundary_of
+
+    coil = pd.Series(["K1"] * 50 + [np.nan] * 30 + ["K2"] * 20, dtype="str")
+    found = regimes.Regimes(("coil",), {})
+    assert np.flatnonzero(found.starts(pd.DataFrame({"coil": coil}))).tolist() == [0, 50, 80]
+    assert regimes.text_changes(coil).sum() == 2
+    assert boundary_of(coil, 78) == 80 and boundary_of(coil, 52) == 50
+    # numbers and text that read the same are the same id, as the log's text gives them
+    assert not regimes.text_changes(pd.Series(["7", 7, 7.0], dtype=object))[0]
+
+
 def test_the_within_regime_residual_is_against_the_mean_of_the_parts_before_it_by_hand():
     residual = np.array([1.0, 3.0, 2.0, 10.0, 5.0, np.nan, 7.0])
     group = np.array([0, 0, 0, 0, 1, 1, 1])

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.answers.trust import VALIDATED
+from hybridtwin.monitor.regimes import text_changes
 
 MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
 MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
@@ -110,9 +111,8 @@ def boundary_of(values: pd.Series, start: int, tolerance: int = BOUNDARY) -> int
     value, or None; a column that changes at more than one part in ten is no such column."""
     if pd.api.types.is_numeric_dtype(values) or len(values) < 2:
         return None
-    text = values.astype(str).to_numpy()
-    changes = np.flatnonzero(text[1:] != text[:-1]) + 1
-    if len(changes) > 0.1 * len(text):
+    changes = np.flatnonzero(text_changes(values)) + 1
+    if len(changes) > 0.1 * len(values):
         return None
     near = changes[np.abs(changes - start) <= tolerance]
     return int(near[np.argmin(np.abs(near - start))]) if len(near) else None
