@@ -14,7 +14,7 @@ def main(snakemake):
         frame = data.load_datasets(snakemake.params.settings, roles=(role,))[role]
     for warning in caught:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
-    files.write_table(files.as_csv_reads_it(frame), snakemake.output.table, float_format=None)  # every value kept
+    files.write_table(frame, snakemake.output.table, float_format=None)  # every value kept
     lines = [f"{role}: {len(frame)} rows, {frame.shape[1]} columns"]
     lines += [f"WARNING: {warning.message}" for warning in caught]
     with files.atomic_path(snakemake.output.report) as temporary:

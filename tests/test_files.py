@@ -108,24 +108,21 @@ def test_parquet_tables_laid_out_otherwise_or_with_text_only_pandas_writes_are_j
         files.write_joined_csv([tmp_path / "x.parquet", tmp_path / "short.parquet"], tmp_path / "bad.csv")
 
 
-def test_a_checked_copy_in_parquet_has_the_types_its_csv_had(tmp_path):
-    """The checked copies were CSV files: their text columns of True/False, of numbers and blanks, and their empty
-    texts reached the later steps as pandas' CSV reader types them, and still do."""
-    from hybridtwin.io import files
+def test_the_loader_types_other_columns_as_a_csv_reader_does_and_a_parquet_copy_keeps_them(tmp_path):
+    """Every step and the predictor see one type per column: the loader's. The checked copies were CSV files, whose
+    reader typed True/False texts, numbers with blanks and empty texts; the loader types them so itself."""
+    from hybridtwin.io import data, files
 
-    text = {
-        "flag": ["True", "False", "True"],
-        "counter": ["1.5", "", "2"],
-        "coil": ["K1", "", "K3"],
-        "shift": ["A", "B", "A"],
-    }
-    columns = {name: pd.array(values, dtype="str") for name, values in text.items()}
-    frame = pd.DataFrame({"x": [1.0, 2.0, 3.0], **columns})
-    files.write_csv(frame, tmp_path / "copy.csv", float_format=None)
-    files.write_table(files.as_csv_reads_it(frame), tmp_path / "copy.parquet", float_format=None)
-    as_csv, as_parquet = (files.read_checked(tmp_path / f"copy.{kind}") for kind in ("csv", "parquet"))
-    pd.testing.assert_frame_equal(as_parquet, as_csv)
-    assert as_parquet["flag"].dtype == bool and as_parquet["counter"].dtype == float and as_parquet["coil"].isna()[1]
+    text = "t,y,flag,counter,coil,shift,big\n1.0,2,True,1.5,K1,A,7\n2.0,3,False,,,B,\n3.0,4,True,2,K3,A,12\n"
+    (tmp_path / "log.csv").write_text(text)
+    columns = data.Columns(("t",), "y", "sim", "meas")
+    loaded = data.load_production(tmp_path / "log.csv", columns)
+    files.write_table(loaded, tmp_path / "copy.parquet", float_format=None)
+    as_parquet = files.read_checked(tmp_path / "copy.parquet")
+    as_csv = pd.read_csv(tmp_path / "log.csv", keep_default_na=False, na_values=[""])
+    pd.testing.assert_frame_equal(as_parquet, as_csv, check_dtype=False)
+    assert [str(as_parquet[name].dtype) for name in ("flag", "counter", "big")] == ["bool", "float64", "float64"]
+    assert as_parquet["coil"].isna().tolist() == [False, True, False] and as_parquet["shift"].notna().all()
 
 
 def test_write_table_writes_csv_unless_the_path_says_parquet(tmp_path):

@@ -98,7 +98,7 @@ def load_doe(
             f"drop {'it' if one else 'them'} from columns.inputs, or use a DoE that varies "
             f"{'it' if one else 'them'}"
         )
-    return doe
+    return _numeric_extras(doe, [*columns.inputs, columns.target], fmt)
 
 
 def load_production(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:

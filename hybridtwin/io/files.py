@@ -299,34 +299,6 @@ def write_table(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORM
             writer.write_table(pa.Table.from_pandas(chunk, schema=schema, preserve_index=False))
 
 
-def as_csv_reads_it(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` as pandas reads it back from a CSV file of it: a text column of True/False as booleans, of numbers
-    and blanks as floats, an empty text as missing. The checked copies were CSV files, and the later steps (the
-    diagnosis' candidate causes) saw these types; as Parquet files they keep them."""
-    typed = {}
-    for name in frame.columns:
-        column = frame[name]
-        if not (pd.api.types.is_string_dtype(column.dtype) or column.dtype == object):
-            continue
-        if _read_back(column.iloc[:100]).dtype == column.dtype:  # a text column shows it early
-            empty = column == ""
-            if empty.any():
-                typed[name] = column.mask(empty)
-            continue
-        typed[name] = _read_back(column)
-
-    return frame.assign(**typed) if typed else frame
-
-
-def _read_back(column: pd.Series) -> pd.Series:
-    import io
-
-    buffer = io.StringIO()
-    column.to_frame().to_csv(buffer, index=False, lineterminator="\n")
-    buffer.seek(0)
-    return pd.read_csv(buffer, keep_default_na=False, na_values=[""]).iloc[:, 0].set_axis(column.index)
-
-
 def read_checked(path, columns=None) -> pd.DataFrame:
     """Read a table the workflow wrote (a checked copy, say), CSV or Parquet; only ``columns``, in the file's
     order, if given: on a log of millions of parts a rule holds the columns it uses, not every one."""

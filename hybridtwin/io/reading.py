@@ -377,13 +377,27 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
     return frame
 
 
+# the texts a CSV reader takes for booleans (pandas' own)
+_FLAGS = {"True": True, "TRUE": True, "true": True, "False": False, "FALSE": False, "false": False}
+
+
 def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.DataFrame:
-    """Log columns (counters, temperatures) that read as numbers become numbers; the rest stay text."""
+    """The other columns (counters, temperatures, flags, ids) typed as a CSV reader types them, so that every step
+    and the predictor see one type: numbers become numbers (an empty cell missing), True/False texts booleans,
+    an empty text missing; the rest stay text."""
     for column in frame.columns:
-        if column in done or not _all_numbers(frame[column].iloc[:100], fmt):  # a text column shows it early
+        if column in done:
             continue
-        if _all_numbers(frame[column], fmt):
-            frame[column] = _numbers(frame[column], fmt)
+        text = frame[column]
+        empty = text == ""
+        filled = text[~empty]
+        if len(filled) and _all_numbers(filled.iloc[:100], fmt) and _all_numbers(filled, fmt):  # text shows early
+            frame[column] = _numbers(text, fmt)
+        elif len(filled) and filled.isin(_FLAGS).all():
+            flags = text.map(_FLAGS)
+            frame[column] = flags.astype(bool) if not empty.any() else flags
+        elif empty.any():
+            frame[column] = text.mask(empty)
     return frame
 
 
