@@ -214,7 +214,7 @@ def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict)
 def read_predictions(hybrid, extension, peers) -> pd.DataFrame:
     """:func:`joined_predictions` of the steps' own files (paths): the table of results/predictions/production.csv,
     which is written for the user, read faster from its parts."""
-    return side_by_side([read_checked(path) for path in (hybrid, extension, *peers)])
+    return joined_predictions(read_checked(hybrid), read_checked(extension), [read_checked(path) for path in peers])
 
 
 def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame, peer_tables) -> pd.DataFrame:
