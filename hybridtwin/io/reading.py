@@ -393,7 +393,7 @@ def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.
         filled = text[~empty]
         if len(filled) and _all_numbers(filled.iloc[:100], fmt) and _all_numbers(filled, fmt):  # text shows early
             frame[column] = _numbers(text, fmt)
-        elif len(filled) and filled.isin(_FLAGS).all():
+        elif len(filled) and filled.iloc[:100].isin(_FLAGS).all() and filled.isin(_FLAGS).all():
             flags = text.map(_FLAGS)
             frame[column] = flags.astype(bool) if not empty.any() else flags
         elif empty.any():
