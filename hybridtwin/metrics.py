@@ -79,13 +79,40 @@ def block_p_value(y, prediction, n_blocks: int, reference=None, min_blocks: int 
     Gains of neighbouring parts are correlated (drift, campaigns); block means are nearly
     independent, so a t-test over them does not overstate the evidence as one over rows would.
     """
-    means = block_gains(y, prediction, n_blocks, reference, min_blocks)
+    return _t_p_value(block_gains(y, prediction, n_blocks, reference, min_blocks))
+
+
+def _t_p_value(means: np.ndarray) -> float:
+    """One-sided p-value of the t-test that the mean of ``means`` is above zero."""
     se = means.std(ddof=1) / np.sqrt(len(means))
     if se == 0:
         return 0.0 if means.mean() > 0 else 1.0
     from scipy import stats  # here: scipy.stats costs a small rule half its run time to import
 
     return float(stats.t.sf(means.mean() / se, df=len(means) - 1))
+
+
+def _signed_rank_p_value(means: np.ndarray) -> float:
+    """One-sided p-value of the Wilcoxon signed-rank test that ``means`` lie above zero."""
+    if not np.any(means):
+        return 1.0
+    from scipy import stats
+
+    return float(stats.wilcoxon(means, alternative="greater").pvalue)
+
+
+def evidence_p_value(y, prediction, n_blocks: int, reference=None) -> float:
+    """One-sided p-value that ``prediction`` beats ``reference`` (default: predicting zero), by the t-test or the
+    signed-rank test over block means of the gain (:func:`block_gains`), whichever is smaller, doubled
+    (Bonferroni over the two).
+
+    The t-test is weak where the gain is positive in nearly every block but of very unequal size: a few coils
+    or campaigns far from the rest carry most of it, and its spread grows with the effect (ten coils whose
+    offsets explained 96% held out: p = 0.003 by the t-test, 1e-13 by the signed-rank test). The signed-rank
+    test is weak where the gain comes in a few blocks only (a step that a few campaigns reach).
+    """
+    means = block_gains(y, prediction, n_blocks, reference)
+    return min(1.0, 2.0 * min(_t_p_value(means), _signed_rank_p_value(means)))
 
 
 def signed_rank_p_value(y, prediction, reference, n_blocks: int, min_blocks: int) -> float:
@@ -95,9 +122,4 @@ def signed_rank_p_value(y, prediction, reference, n_blocks: int, min_blocks: int
     Unlike the t-test of :func:`block_p_value`, a gain that is positive almost everywhere but of very
     unequal size (a drift, an effect that only some coils reach) does not count against it.
     """
-    means = block_gains(y, prediction, n_blocks, reference, min_blocks)
-    if not np.any(means):
-        return 1.0
-    from scipy import stats
-
-    return float(stats.wilcoxon(means, alternative="greater").pvalue)
+    return _signed_rank_p_value(block_gains(y, prediction, n_blocks, reference, min_blocks))

@@ -15,6 +15,8 @@ from hybridtwin.crossval import (
 from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
 from hybridtwin.diagnosis import fits as fitting
 from hybridtwin.diagnosis.causes import Cause, looks_like_timestamps, parse_timestamps
+from hybridtwin.diagnosis.selection import Selection
+from hybridtwin.metrics import block_p_value
 from tests.test_diagnosis_rules import coil_plant, material_coils, warming_die
 
 
@@ -269,6 +271,22 @@ def test_the_joint_share_is_the_held_out_share_of_the_terms_fitted_together():
 
 def _column_fit(name, kind, values, y):
     return fitting.best_fit(Candidate.new(name, kind, values, (name,)), y, Settings(folds=5, seed=0))
+
+
+def test_a_coil_effect_that_two_coils_carry_is_not_lost_to_the_spread_of_its_gain():
+    # every coil's offset is learnt held out, but two far coils hold most of the gain: the t-test over the
+    # blocks' gains alone stays above a Bonferroni level of about 100 candidates; the signed-rank test does not
+    rng = np.random.default_rng(7)
+    coil = np.repeat(np.arange(40), 100)
+    offsets = rng.normal(0, 0.5, 40)
+    offsets[[11, 29]] = [9.0, -9.0]
+    y = offsets[coil] + rng.normal(0, 0.3, len(coil))
+    y = y - y.mean()
+    settings = Settings(folds=5, seed=0)
+    fit = fitting.best_fit(Candidate.new("coil", "group", np.char.add("c", coil.astype(str)), ("coil",)), y, settings)
+    assert fit.explained_share > 0.95
+    assert block_p_value(y, fit.oof, settings.n_blocks) > 1e-4
+    assert fit.p_value < 1e-20
 
 
 def test_a_better_held_out_fit_wins_only_between_columns_scored_on_their_own_values():
@@ -562,6 +580,24 @@ def test_a_named_form_that_took_a_trends_place_stands_only_where_it_is_significa
     assert settled.form.name == {"trend": "monotone", "named": "linear"}[stays]
     if stays == "trend":
         assert settled.alternatives[0] is settled and settled.alternatives[1] is named
+
+
+def test_candidates_are_ranked_by_their_best_significant_form_not_by_the_form_they_are_named_with():
+    # a wear named by its slope (it predicts what its better trend does) against a looser neighbour that scores
+    # between the two: the wear's trend is what it predicts held out
+    rules = fitting.Rules(Settings(alpha=0.01), n_tests=1, min_effect=0.5)
+    slope = _scored("wear", "log", score=-1.0, p_value=0.001)
+    trend = _trend(name="wear", kind="log", score=-3.0, p_value=0.001)
+    trend.form = forms.fit_form("monotone", trend.candidate.values, trend.candidate.values)
+    slope.alternatives = [slope, trend]
+    ambient = _scored("ambient", "log", score=-2.0, p_value=0.001)
+    ambient.form.slope = -1.0  # predicts otherwise than the wear: not a simpler rival of it
+    assert rules.strength(slope) == -3.0 and rules.strength(ambient) == -2.0
+    selection = Selection(np.zeros(4), [slope.candidate, ambient.candidate], rules, {})
+    assert selection._next_smooth([ambient, slope]) is slope
+    trend.p_value = 0.02  # a better trend that is not significant does not count
+    assert rules.strength(slope) == -1.0
+    assert selection._next_smooth([ambient, slope]) is ambient
 
 
 def test_value_folds_hold_out_whole_levels_of_a_numeric_candidate():

@@ -12,6 +12,7 @@ from hybridtwin.metrics import (
     bias,
     block_gains,
     block_p_value,
+    evidence_p_value,
     lag1_correlation,
     mae,
     r2,
@@ -76,6 +77,33 @@ def test_the_signed_rank_test_weighs_each_block_by_the_rank_of_its_gain():
     mixed = gains_of([0.0, 0.5, 1.0, 1.5, 3.0], 20)
     assert signed_rank_p_value(y, mixed, reference, 5, 5) == pytest.approx(10 / 32)
     assert signed_rank_p_value(y, reference, reference, 5, 5) == 1.0  # no gain anywhere
+
+
+def blocks_with_gains(gains, rows: int = 20):
+    """Residual and prediction whose squared-error gain over predicting zero is ``gains``, block by block:
+    a gain g >= 0 is a part predicted exactly (y = sqrt g), a loss -g a part of 0 predicted as sqrt g."""
+    y = np.repeat([np.sqrt(g) if g >= 0 else 0.0 for g in gains], rows)
+    prediction = np.repeat([np.sqrt(abs(g)) for g in gains], rows)
+    return y, prediction
+
+
+def test_the_diagnosis_test_takes_the_signed_rank_test_where_few_blocks_carry_a_gain_found_in_every_block():
+    # a gain in every block, nearly all of it in one (a few coils or campaigns far from the rest)
+    y, prediction = blocks_with_gains([0.01, 0.02, 0.03, 0.04, 100.0])
+    assert block_p_value(y, prediction, 5) > 0.15  # t = 1.0: the one large block makes the spread
+    # every block a gain: W = 15 of 15, which 1 of the 32 sign patterns reaches; doubled for the two tests
+    assert evidence_p_value(y, prediction, 5) == pytest.approx(2 / 32)
+
+
+def test_the_diagnosis_test_takes_the_t_test_where_the_gain_comes_in_a_few_blocks_only():
+    # a step that two campaigns reach: a large gain in two blocks, a small loss in three
+    y, prediction = blocks_with_gains([-1.0, -1.0, -1.0, 20.0, 20.0])
+    t_only = block_p_value(y, prediction, 5)
+    # mean 7.4, sd 11.5: t = 1.44 with 4 degrees of freedom; W = 9 of 15 by the signed ranks (p = 0.31)
+    assert t_only == pytest.approx(0.1118, abs=1e-4)
+    assert evidence_p_value(y, prediction, 5) == pytest.approx(2 * t_only)
+    reference = np.zeros_like(y)  # against a reference given explicitly, the same
+    assert evidence_p_value(y, prediction, 5, reference) == pytest.approx(2 * t_only)
 
 
 def test_metrics_by_hand():

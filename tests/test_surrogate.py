@@ -69,3 +69,19 @@ def test_gpr_json_round_trip_and_determinism(doe30):
     assert copy.noise_std_ == pytest.approx(model.noise_std_, rel=1e-10)
     again = GPRSurrogate(n_restarts=1, random_state=4).fit(X, y)
     np.testing.assert_array_equal(again.predict(query), model.predict(query))
+
+
+def test_a_gp_of_given_hyperparameters_factorizes_its_kernel_once_with_the_same_posterior(doe30):
+    from sklearn.gaussian_process import GaussianProcessRegressor
+
+    from hybridtwin.paper.surrogate import FixedKernelGPR
+
+    X, y = doe30
+    kernel = GPRSurrogate(n_restarts=0).fit(X, y).gpr_.kernel_
+    fixed = FixedKernelGPR(kernel).fit(X, y)
+    plain = GaussianProcessRegressor(kernel, normalize_y=True, optimizer=None).fit(X, y)
+    query = np.random.default_rng(3).uniform([0, 0, 0], [1, 2, 10], (40, 3))
+    for ours, theirs in zip(fixed.predict(query, return_std=True), plain.predict(query, return_std=True)):
+        np.testing.assert_array_equal(ours, theirs)
+    assert np.isnan(fixed.log_marginal_likelihood_value_)  # not computed in fit: the second factorization
+    assert fixed.log_marginal_likelihood() == pytest.approx(plain.log_marginal_likelihood_value_, rel=1e-12)

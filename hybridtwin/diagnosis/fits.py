@@ -20,7 +20,7 @@ from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.forms import fit_form
 from hybridtwin.diagnosis.policy import BINS_PER_FOLD, MAX_CLOSED_FORM_PARAMS, SHARE_TOLERANCE
 from hybridtwin.diagnosis.settings import Settings
-from hybridtwin.metrics import block_p_value
+from hybridtwin.metrics import evidence_p_value
 
 log = logging.getLogger(__name__)
 
@@ -126,7 +126,7 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
                 cv_mse,
                 null_mse,
                 float(score),
-                block_p_value(y, oof, settings.n_blocks),
+                evidence_p_value(y, oof, settings.n_blocks),
                 float(np.ptp(fitted)),
                 float(np.std(fitted)),
             )
@@ -224,6 +224,16 @@ class Rules:
 
     def significant(self, fit: Fit) -> bool:
         return is_significant(fit, self.n_tests, self.settings, self.min_effect)
+
+    def strength(self, fit: Fit) -> float:
+        """How well a candidate predicts held out, to rank it against the others: the best penalized score among
+        its significant forms (its own form's where none is significant).
+
+        The form a cause is named with can score worse than one it stands for: a slope put ahead of the monotone
+        trend it predicts the same as, within the surrogate's uncertainty (:func:`_named_form_first`). Ranked by
+        the slope, a wear drift fell behind a parabola in the ambient temperature that follows it loosely and that
+        its trend beats held out (two-cause draw 1420)."""
+        return min([fit.score, *(alt.score for alt in fit.alternatives if self.significant(alt))])
 
     def best_fit(self, candidate: Candidate, y) -> Fit:
         return self.settled(best_fit(candidate, y, self.settings, self.min_effect))

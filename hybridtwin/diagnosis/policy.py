@@ -1,6 +1,6 @@
 """The diagnosis' selection policy, in one place.
 
-The statistical settings a user may change (folds, alpha, the blocks of the block t-test, the surrogate
+The statistical settings a user may change (folds, alpha, the blocks of the block test, the surrogate
 margin) are in :class:`~hybridtwin.diagnosis.settings.Settings`, from the config's ``diagnosis:``.
 """
 

@@ -8,10 +8,10 @@ K-fold held-out error with a BIC-style penalty on its parameters. Causes are
 then selected forward, each one conditionally on those already chosen, so that
 a correlated neighbour of the real cause (Rm next to Rp0.2, ambient next to die
 temperature, time next to stroke counter) is not named. A cause counts as
-significant when its held-out gain passes a block-wise t-test (blocks of
-consecutive rows, robust to drift and autocorrelation; Bonferroni over the
-candidates) and its effect is larger than the surrogate's own uncertainty,
-which is also in the residual.
+significant when its held-out gain passes a block-wise test (a t-test or a
+signed-rank test over blocks of consecutive rows, the smaller p doubled; robust
+to drift and autocorrelation; Bonferroni over the candidates) and its effect is
+larger than the surrogate's own uncertainty, which is also in the residual.
 """
 
 from __future__ import annotations
@@ -125,7 +125,10 @@ class Selection:
         if not significant:
             return None
         best = prefer_simpler(
-            min(significant, key=lambda fit: (fit.score, fit.candidate.name)), pool, self.remaining, self.rules
+            min(significant, key=lambda fit: (self.rules.strength(fit), fit.candidate.name)),
+            pool,
+            self.remaining,
+            self.rules,
         )
         best = product_or_column(best, {c.name: c for c in self.candidates}, self.remaining, self.rules)
         return best if self.rules.significant(best) else None

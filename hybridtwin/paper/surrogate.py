@@ -19,6 +19,30 @@ from hybridtwin.paper.gate import DoEStandardizer, input_names, remember_inputs,
 PREDICT_ROWS = 5_000
 
 
+class FixedKernelGPR(GaussianProcessRegressor):
+    """A GaussianProcessRegressor whose hyperparameters are given (``optimizer=None``): fitting factorizes the
+    training kernel once, for the posterior. scikit-learn's fit computes the log-marginal likelihood too, only to
+    store it (``log_marginal_likelihood_value_``, NaN here): a second factorization, half of every load of a
+    2,000-part GP discrepancy and of each of its refits on other periods."""
+
+    def __init__(self, kernel=None, *, normalize_y: bool = True):
+        super().__init__(kernel, normalize_y=normalize_y, optimizer=None)
+
+    def log_marginal_likelihood(self, theta=None, eval_gradient=False, clone_kernel=True):
+        if getattr(self, "_fitting", False):
+            return np.nan
+        if theta is None and hasattr(self, "kernel_"):  # not stored: computed when asked
+            theta = self.kernel_.theta
+        return super().log_marginal_likelihood(theta, eval_gradient, clone_kernel)
+
+    def fit(self, X, y):
+        self._fitting = True
+        try:
+            return super().fit(X, y)
+        finally:
+            self._fitting = False
+
+
 class GPRSurrogate(RegressorMixin, BaseEstimator):
     """Inputs are standardized with the statistics of the training (DoE) rows."""
 
@@ -98,7 +122,7 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         X_train = np.asarray(data["X_train"], float)
         kernel = model._kernel(X_train.shape[1]).clone_with_theta(np.asarray(data["theta"], float))
         model.standardizer_ = DoEStandardizer.from_dict(data["standardizer"])
-        model.gpr_ = GaussianProcessRegressor(kernel, normalize_y=True, optimizer=None)
+        model.gpr_ = FixedKernelGPR(kernel, normalize_y=True)
         model.gpr_.fit(X_train, np.asarray(data["y_train"], float))
         model.n_features_in_ = X_train.shape[1]
         restore_inputs(model, data)
