@@ -4,9 +4,12 @@ Reruns, with today's code, every plant of a ``structures_bank.py`` CSV that got 
 holds a coil effect (the plants the id rules can touch; ``--all``: every plant; ``--below-limit``: the plants whose
 effect is below the surrogate's own uncertainty), and writes a table of the answer before and after, with the ids
 named and what the report calls too small to tell from the surrogate's own error. The baselines (TreeSHAP, the EBM)
-are not rerun: they do not depend on the diagnosis. Usage:
+are not rerun: they do not depend on the diagnosis. "Before" is the bank's own run, so every commit since moves it;
+``--against`` names an earlier rerun's CSV (another commit's) and lists the plants whose causes or too-small
+effects differ from it, which isolates one change. Usage:
 
     python benchmarks/bank_redo.py benchmarks/results/structures_bank_seed4.csv --out benchmarks/results/x.md
+    python benchmarks/bank_redo.py BANK.csv --all --out new.md --against benchmarks/results/bank_redo_seed4_all.csv
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import argparse
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from hybridtwin.demo import scenarios, structures
@@ -57,6 +61,28 @@ def below_limit_words(bank: pd.DataFrame, redone: pd.DataFrame) -> list[str]:
     ]
 
 
+def against_words(earlier: pd.DataFrame, redone: pd.DataFrame, name: str) -> list[str]:
+    """The plants rerun both here and in an earlier rerun whose chosen causes (and too-small effects, where the
+    earlier rerun recorded them) differ."""
+    columns = [c for c in ("chosen_after", "too_small_after") if c in earlier.columns]
+    both = earlier[["draw", *columns]].merge(redone[["kind", "draw", *columns]], on="draw", suffixes=("_then", "_now"))
+    both = both.fillna("")
+    moved = both[np.any([both[f"{c}_then"] != both[f"{c}_now"] for c in columns], axis=0)]
+    labels = {c: c.removesuffix("_after").replace("_", " ") for c in columns}
+    compared = " and ".join(labels.values())
+    lines = ["", f"against {name}: {len(both)} plants in both, {len(moved)} with another {compared}"]
+    if len(moved):
+        lines += ["", "| kind | draw | " + " | ".join(f"{labels[c]} then | {labels[c]} now" for c in columns) + " |"]
+        lines += ["|---|---:|" + "---|---|" * len(columns)]
+        lines += [
+            f"| {r['kind']} | {r['draw']} | "
+            + " | ".join(f"{r[c + '_then']} | {r[c + '_now']}" for c in columns)
+            + " |"
+            for _, r in moved.iterrows()
+        ]
+    return lines
+
+
 def report(bank: pd.DataFrame, redone: pd.DataFrame, which: str) -> str:
     no_id_effect = redone["kind"] != "coil"
     changed = redone[(redone["before"] != redone["after"]) | (redone["id_before"] != redone["id_after"])]
@@ -90,6 +116,7 @@ def main() -> None:
     parser.add_argument("--out", required=True, help="the Markdown table (a CSV of every plant beside it)")
     parser.add_argument("--all", action="store_true", help="rerun every plant, not only those the id rules can touch")
     parser.add_argument("--below-limit", action="store_true", help="rerun the plants whose effect is below the limit")
+    parser.add_argument("--against", help="an earlier rerun's CSV: list the plants whose causes differ from it")
     args = parser.parse_args()
     warnings.filterwarnings("ignore", category=UserWarning)
     bank = pd.read_csv(args.bank)
@@ -103,8 +130,11 @@ def main() -> None:
     out = Path(args.out)
     redone.to_csv(out.with_suffix(".csv"), index=False)
     flags = " --all" if args.all else " --below-limit" if args.below_limit else ""
+    flags += f" --against {args.against}" if args.against else ""
     command = f"python benchmarks/bank_redo.py {args.bank}{flags} --out {args.out}"
     text = f"`{command}`\n\n" + report(bank, redone, which)
+    if args.against:
+        text += "\n" + "\n".join(against_words(pd.read_csv(args.against), redone, args.against))
     out.write_text(text + "\n")
     print(text)
 
