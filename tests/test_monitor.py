@@ -92,8 +92,8 @@ def test_a_stretch_of_blank_ids_is_one_regime_and_a_change_of_id_is_found_beside
     assert np.flatnonzero(found.starts(pd.DataFrame({"coil": coil}))).tolist() == [0, 50, 80]
     assert regimes.text_changes(coil).sum() == 2
     assert boundary_of(coil, 78) == 80 and boundary_of(coil, 52) == 50
-    # numbers and text that read the same are the same id, as the log's text gives them
-    assert not regimes.text_changes(pd.Series(["7", 7, 7.0], dtype=object))[0]
+    # ids are compared as their text: "7" and 7 are one id, 7.0 (text "7.0") another
+    assert regimes.text_changes(pd.Series(["7", 7, 7.0], dtype=object)).tolist() == [False, True]
 
 
 def test_the_within_regime_residual_is_against_the_mean_of_the_parts_before_it_by_hand():

@@ -2,7 +2,8 @@
 
 The model file is JSON: the fitted kernel hyperparameters and the training
 data. Loading rebuilds the same GaussianProcessRegressor with the optimizer
-switched off, which reproduces the fitted posterior exactly; nothing is pickled.
+switched off (:class:`FixedKernelGPR`), which reproduces the fitted posterior
+exactly; nothing is pickled.
 """
 
 from __future__ import annotations
