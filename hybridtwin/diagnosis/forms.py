@@ -100,9 +100,18 @@ class Quadratic(Form):
         slope = np.polyval(np.polyder(np.asarray(self.coefficients, float)), clipped - self.center)
         return np.polyval(self.coefficients, clipped - self.center) + slope * (x - clipped)
 
-    def describe(self, column, unit, x_unit=""):
+    @property
+    def vertex(self) -> float:
+        """Where the parabola turns (infinite where it is a line)."""
         a, b, _ = self.coefficients
-        return f"quadratic in {column}, vertex at {_with(self.center - b / (2 * a), x_unit)}" if a else "quadratic"
+        return self.center - b / (2 * a) if a else np.inf
+
+    def describe(self, column, unit, x_unit=""):
+        return (
+            f"quadratic in {column}, vertex at {_with(self.vertex, x_unit)}"
+            if np.isfinite(self.vertex)
+            else "quadratic"
+        )
 
 
 class Sigmoid(Form):
