@@ -11,6 +11,10 @@ the column of largest mean |TreeSHAP| (``Outcome.shap_top``) and the top term of
     python benchmarks/structures_bank.py --plants 300 --seed 1
     python benchmarks/structures_bank.py --plants 26 --kinds coil wear --jobs 2
     python benchmarks/structures_bank.py --summary-of benchmarks/results/structures_bank.csv
+    python benchmarks/structures_bank.py --summary-of BANK.csv BANK2.csv --overlay REDO.csv REDO2.csv --out ALL.md
+
+Several banks are summarized as one; ``--overlay`` puts the diagnosis' answers of ``bank_redo.py`` reruns (today's
+code) in place of the banks' own, plant by plant (the baselines do not depend on the diagnosis and are kept).
 
 The EBM is fitted with 4 outer bags and 10 pairs (the library's defaults, 14 bags and 5x pairs, take about six
 times as long); a baseline's top is judged as TreeSHAP's is (``Outcome.shap_correct``: the largest cause, its
@@ -227,6 +231,16 @@ def _miss_lines(table: pd.DataFrame) -> list[str]:
     return lines
 
 
+def overlaid(bank: pd.DataFrame, redone: pd.DataFrame) -> pd.DataFrame:
+    """``bank`` with the diagnosis' answers of a ``bank_redo.py`` rerun in place of its own, on the plants rerun."""
+    answers = {"after": "answer_ok", "chosen_after": "chosen", "id_after": "id_named"}
+    redone = redone.set_index(["kind", "draw"])[list(answers)].rename(columns=answers)
+    table = bank.set_index(["kind", "draw"])
+    table.update(redone)
+    table[["answer_ok", "id_named"]] = table[["answer_ok", "id_named"]].astype(bool)
+    return table.reset_index()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", type=int, default=len(structures.KINDS), help="number of plants, kinds cycled")
@@ -235,11 +249,15 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--n-production", type=int, default=None, help="parts per plant (default: drawn)")
     parser.add_argument("--out", default="benchmarks/results/structures_bank.csv")
-    parser.add_argument("--summary-of", default=None, help="only rewrite the summary (.md) of a bank's CSV")
+    parser.add_argument("--summary-of", nargs="+", default=None, help="only summarize banks' CSVs (.md beside)")
+    parser.add_argument("--overlay", nargs="*", default=[], help="bank_redo.py CSVs whose answers replace the banks'")
     args = parser.parse_args()
     if args.summary_of:
-        out = Path(args.summary_of)
-        table = pd.read_csv(out)
+        table = pd.concat([pd.read_csv(path) for path in args.summary_of], ignore_index=True)
+        for path in args.overlay:
+            table = overlaid(table, pd.read_csv(path))
+        several = len(args.summary_of) > 1 or args.overlay
+        out = Path(args.out if several else args.summary_of[0])
     else:
         warnings.filterwarnings("ignore", category=UserWarning)
         out = Path(args.out)
