@@ -508,18 +508,18 @@ def test_a_cause_whose_form_changes_once_the_others_are_in_reopens_the_choice_af
 class Fixed(forms.Form):
     """A form that predicts given values: the rule under test sees only names, parameters and predictions."""
 
-    def __init__(self, name, values, n_params, width=1.0, vertex=1.5):
-        self.name, self.values, self.n_params = name, np.asarray(values, float), n_params
-        self.width, self.vertex = width, vertex
+    def __init__(self, name, values, n_params, width=1.0):
+        self.name, self.values, self.n_params, self.width = name, np.asarray(values, float), n_params, width
 
     def _predict(self, x):
         return self.values
 
 
-def _predicting(form_name, values, n_params, *, kind="input", score=-1.0, width=1.0, vertex=1.5, cv_mse=1.0):
+def _predicting(form_name, values, n_params, *, kind="input", score=-1.0, width=1.0, cv_mse=1.0):
     x = np.arange(4.0)
-    form = Fixed(form_name, values, n_params, width, vertex)
-    return fitting.Fit(Candidate.new("x", kind, x, ("x",)), form, x, cv_mse, 4.0, score, 0, 0, 0)
+    return fitting.Fit(
+        Candidate.new("x", kind, x, ("x",)), Fixed(form_name, values, n_params, width), x, cv_mse, 4.0, score, 0, 0, 0
+    )
 
 
 SAME, APART = [0.0, 1.0, 2.0, 3.0], [3.0, 0.0, 3.0, 0.0]
@@ -545,32 +545,15 @@ def test_a_sigmoid_wider_than_its_data_gives_way_to_a_simpler_form_that_predicts
     slope = _predicting("linear", SAME, 1, kind=kind)
     fits = [sigmoid, as_many, fewer_apart, slope]
     expected = [slope, sigmoid, as_many, fewer_apart] if moved else fits
-    assert fitting._unseen_bend_last(fits, 0.5, sigmoid.candidate) == expected
-    assert fitting._unseen_bend_last([sigmoid, slope], 0.5, sigmoid.candidate)[0] is (slope if moved else sigmoid)
+    assert fitting._unseen_saturation_last(fits, 0.5, sigmoid.candidate) == expected
+    assert fitting._unseen_saturation_last([sigmoid, slope], 0.5, sigmoid.candidate)[0] is (slope if moved else sigmoid)
 
 
 def test_a_sigmoid_whose_change_fits_inside_its_data_stays():
     narrow = _predicting("sigmoid", SAME, 3, width=3.0 / forms.SIGMOID_SPAN)  # 10-90% over exactly the span
     slope = _predicting("linear", SAME, 1)
-    assert fitting._unseen_bend_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
-    assert fitting._unseen_bend_last([], 0.5, narrow.candidate) == []
-
-
-@pytest.mark.parametrize("vertex,moved", [(-0.1, True), (3.1, True), (np.inf, True), (0.0, False), (3.0, False)])
-def test_a_parabola_whose_vertex_lies_beyond_its_data_gives_way_to_a_slope_that_predicts_the_same(vertex, moved):
-    # the values run from 0 to 3: a vertex outside them is a bend the data do not show
-    parabola = _predicting("quadratic", SAME, 2, vertex=vertex)
-    apart = _predicting("linear", APART, 1)  # simpler, but not the same
-    slope = _predicting("linear", SAME, 1)
-    assert fitting._unseen_bend_last([parabola, apart], 0.5, parabola.candidate) == [parabola, apart]
-    assert fitting._unseen_bend_last([parabola, slope], 0.5, parabola.candidate)[0] is (slope if moved else parabola)
-
-
-def test_a_parabola_knows_where_it_turns():
-    x = np.linspace(0.0, 10.0, 101)
-    assert forms.Quadratic().fit(x, (x - 7.0) ** 2).vertex == pytest.approx(7.0)
-    assert abs(forms.Quadratic().fit(x, 2.0 * x).vertex) > 1e6  # no curvature: a line turns nowhere near
-    assert fitting.bend_unseen(forms.Linear().fit(x, 2.0 * x), x) is False
+    assert fitting._unseen_saturation_last([narrow, slope], 0.5, narrow.candidate) == [narrow, slope]
+    assert fitting._unseen_saturation_last([], 0.5, narrow.candidate) == []
 
 
 def _trend(**scores) -> fitting.Fit:

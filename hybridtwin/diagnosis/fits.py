@@ -132,23 +132,24 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
             )
         )
     fits.sort(key=lambda fit: (fit.score, fit.form.n_params))
-    fits = _unseen_bend_last(_named_form_first(fits, min_effect), min_effect, candidate)
+    fits = _unseen_saturation_last(_named_form_first(fits, min_effect), min_effect, candidate)
     best = fits[0]
     best.alternatives = fits
     return best
 
 
-def _unseen_bend_last(fits: list[Fit], min_effect: float, candidate: Candidate) -> list[Fit]:
-    """A curved form whose bend lies beyond the values it was fitted on (:func:`bend_unseen`) gives way to a
-    simpler closed form that predicts the same within ``min_effect``.
+def _unseen_saturation_last(fits: list[Fit], min_effect: float, candidate: Candidate) -> list[Fit]:
+    """A sigmoid whose change (10-90%) is wider than the values it was fitted on gives way to a simpler
+    closed form that predicts the same within ``min_effect``.
 
-    Such a curve shows no bend in the data: it is a trend with a bend the data do not show (the surrogate's
-    own error along the column can put one there). A sigmoid then says "saturating" and a parabola
-    "vertex at" where the data say "slope": a wear linear in strokes was named a parabola whose vertex lay
-    beyond every stroke count (structures draw 60049).
+    Such a sigmoid shows no saturation in the data: it is a trend with a bend the data do
+    not show (the surrogate's own error along the column can put one there), and it says
+    "saturating" where the data say "slope".
     """
     first = fits[0] if fits else None
-    if first is None or candidate.kind not in ("input", "log", "time") or not bend_unseen(first.form, candidate.values):
+    if first is None or first.form.name != forms.Sigmoid.name or candidate.kind not in ("input", "log", "time"):
+        return fits
+    if forms.SIGMOID_SPAN * first.form.width <= float(np.ptp(candidate.values)):
         return fits
     simpler = [
         fit for fit in fits[1:] if fit.form.n_params < first.form.n_params and predicts_the_same(fit, first, min_effect)
@@ -157,17 +158,6 @@ def _unseen_bend_last(fits: list[Fit], min_effect: float, candidate: Candidate) 
         return fits
     choice = min(simpler, key=lambda fit: (fit.form.n_params, fit.score))
     return [choice] + [fit for fit in fits if fit is not choice]
-
-
-def bend_unseen(form: forms.Form, values) -> bool:
-    """Whether a curved form's bend lies beyond ``values``: a sigmoid whose change (10-90%) is wider than they
-    span, a parabola whose vertex lies outside them. Other forms have no bend to see."""
-    values = np.asarray(values, float)
-    if form.name == forms.Sigmoid.name:
-        return forms.SIGMOID_SPAN * form.width > float(np.ptp(values))
-    if form.name == forms.Quadratic.name:
-        return not values.min() <= form.vertex <= values.max()
-    return False
 
 
 def _named_form_first(fits: list[Fit], min_effect: float) -> list[Fit]:

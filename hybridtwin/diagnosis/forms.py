@@ -77,13 +77,7 @@ class Linear(Form):
 
 
 class Quadratic(Form):
-    """A parabola inside the fitted range, continued along its tangent beyond it: curvature is not extrapolated.
-
-    Held constant beyond its range, a parabola whose vertex lies near one end of the values lost every
-    held-out stretch of its rising arm to a sigmoid, which goes on rising there, and was named a
-    saturation (structures draws 40053, 60040). The tangent continues it as a natural spline continues
-    its ends; how far the term is trusted beyond its values is :func:`set_trusted_range`'s to say.
-    """
+    """A parabola inside the fitted range, held constant beyond it: curvature is not extrapolated."""
 
     name, n_params = "quadratic", 2
 
@@ -95,23 +89,12 @@ class Quadratic(Form):
         return self
 
     def _predict(self, x):
-        x = np.asarray(x, float)
-        clipped = np.clip(x, self.low, self.high)
-        slope = np.polyval(np.polyder(np.asarray(self.coefficients, float)), clipped - self.center)
-        return np.polyval(self.coefficients, clipped - self.center) + slope * (x - clipped)
-
-    @property
-    def vertex(self) -> float:
-        """Where the parabola turns (infinite where it is a line)."""
-        a, b, _ = self.coefficients
-        return self.center - b / (2 * a) if a else np.inf
+        clipped = np.clip(np.asarray(x, float), self.low, self.high)
+        return np.polyval(self.coefficients, clipped - self.center)
 
     def describe(self, column, unit, x_unit=""):
-        return (
-            f"quadratic in {column}, vertex at {_with(self.vertex, x_unit)}"
-            if np.isfinite(self.vertex)
-            else "quadratic"
-        )
+        a, b, _ = self.coefficients
+        return f"quadratic in {column}, vertex at {_with(self.center - b / (2 * a), x_unit)}" if a else "quadratic"
 
 
 class Sigmoid(Form):
