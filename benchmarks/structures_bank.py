@@ -235,6 +235,7 @@ def overlaid(bank: pd.DataFrame, redone: pd.DataFrame) -> pd.DataFrame:
     """``bank`` with the diagnosis' answers of a ``bank_redo.py`` rerun in place of its own, on the plants rerun."""
     answers = {"after": "answer_ok", "chosen_after": "chosen", "id_after": "id_named"}
     redone = redone.set_index(["kind", "draw"])[list(answers)].rename(columns=answers)
+    redone["chosen"] = redone["chosen"].fillna("")  # nothing chosen in the rerun: update() would skip a missing value
     table = bank.set_index(["kind", "draw"])
     table.update(redone)
     table[["answer_ok", "id_named"]] = table[["answer_ok", "id_named"]].astype(bool)
