@@ -122,3 +122,13 @@ def splice_out_of_fold(final, rows, oof) -> np.ndarray:
     spliced = np.asarray(final, float).copy()
     spliced[np.asarray(rows, int)] = np.asarray(oof, float)
     return spliced
+
+
+def capped_note(max_train_rows: int | None, n_rows: int) -> str:
+    """How a table says that its residual models were fitted on a sample ('' when they were not)."""
+    if max_train_rows is None or n_rows <= max_train_rows:
+        return ""
+    return (
+        f"; each model fitted on a seeded sample of at most {max_train_rows:,} of its training rows "
+        "(residual_model.max_train_rows)"
+    )

@@ -112,8 +112,8 @@ def residual_cv(production, residual_table, spec: Spec, training: str, params: d
     consecutive parts, so that a part is predicted by a model that never saw its campaign, its coil or its hour
     (the errors the next production period meets). The model trained on every part has only the latter.
     """
-    from hybridtwin.crossval import cross_validate, ids_of, period_folds
-    from hybridtwin.paper.residual import capped_note, evaluation_seed, make_model
+    from hybridtwin.crossval import capped_note, cross_validate, ids_of, period_folds
+    from hybridtwin.paper.residual import evaluation_seed, make_model
 
     rows, X, y = _training(production, residual_table, spec, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)

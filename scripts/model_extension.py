@@ -5,7 +5,7 @@ import pandas as pd
 
 from hybridtwin import pipeline
 from hybridtwin.answers.regions import calibration_rows
-from hybridtwin.crossval import written_splits
+from hybridtwin.crossval import capped_note, written_splits
 from hybridtwin.diagnosis import extension
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.io import files
@@ -41,7 +41,7 @@ def main(snakemake):
         *truth,
         test=~choosing,
     )
-    table["evaluated_on"] += residual.capped_note(spec.max_train_rows, int(in_support(residuals).sum()))
+    table["evaluated_on"] += capped_note(spec.max_train_rows, int(in_support(residuals).sum()))
     files.write_csv(table, snakemake.output.table)
     files.write_json(result.models.stored(), snakemake.output.extension)
     residual.save_model(result.models.remainder, snakemake.output.remainder, spec.inputs)

@@ -1,8 +1,12 @@
-"""Prediction intervals by region, the recommended model per region, the peer comparison and the predictor's
-manifest."""
+"""Prediction intervals by region, the recommended model per region, the peer comparison, the predictor's
+manifest, and a sweep figure per named cause (the frozen predictor's answer along the cause's column at typical
+production, with its interval, the DoE's range and each value's trust verdict)."""
+
+from pathlib import Path
 
 from hybridtwin import pipeline
 from hybridtwin.answers import coverage
+from hybridtwin.answers.predictor import Predictor
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import files
 from hybridtwin.io.files import read_checked
@@ -50,6 +54,24 @@ def main(snakemake):
         plots.prediction_intervals(**shown, threshold=gate.threshold_, level=level, unit=p.unit),
         snakemake.output.figure,
     )
+    # here, not in a step of its own: a process start (2 s) for half a second of sweeps
+    write_sweeps(Predictor.load(Path(snakemake.output.manifest).parent), snakemake.input, snakemake.output.sweeps)
+
+
+def write_sweeps(predictor, found, paths):
+    causes = files.read_json(found.summary)["selected"]
+    columns = sorted({cause["columns"][0] for cause in causes if cause["kind"] != "group"})
+    sweeps = pipeline.cause_sweeps(predictor, causes, read_checked(found.production, columns))
+    spec = predictor.spec
+    for rank, path in enumerate(paths, start=1):
+        shown = sweeps[rank - 1] if rank <= len(sweeps) else None
+        if shown is None:
+            why = f"no cause {rank}" if rank > len(causes) else f"cause {rank} is an id: no sweep can show it"
+            files.save_figure(plots.placeholder(why), path)
+            continue
+        column, answers = shown
+        doe_range = predictor.doe_range.get(column, (float("nan"), float("nan")))
+        files.save_figure(plots.sweep(answers, column, doe_range, spec["target"], spec["unit"]), path)
 
 
 run(snakemake, main)

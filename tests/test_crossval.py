@@ -8,6 +8,7 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin
 
 from hybridtwin.crossval import (
+    capped_note,
     cross_validate,
     cv_table,
     fold_ids,
@@ -111,8 +112,8 @@ def test_cross_validation_reports_the_rows_a_capped_model_trained_on():
     assert per_fold["n_train"].tolist() == [12] * 4 and per_fold["n_test"].sum() == n
     for model, (train, test) in zip(FITTED, folds(n, 4, seed=3)):
         assert model.seen_ < set(train.tolist()) and model.predicted_ == set(test.tolist())
-    says(residual.capped_note(12, 30), "sample", "at most 12")
-    assert residual.capped_note(12, 12) == "" and residual.capped_note(None, 10**6) == ""
+    says(capped_note(12, 30), "sample", "at most 12")
+    assert capped_note(12, 12) == "" and capped_note(None, 10**6) == ""
 
 
 def test_splice_keeps_fractions_put_into_an_integer_column():

@@ -7,9 +7,10 @@ import pandas as pd
 import pytest
 
 from hybridtwin.crossval import (
+    capped_note,
     splice_out_of_fold,
 )
-from hybridtwin.paper import residual, tables
+from hybridtwin.paper import tables
 from hybridtwin.paper.tables import dataset_summary, matched_summary, production_predictions, sensitivity_table
 from tests.conftest import says
 
@@ -233,7 +234,7 @@ def test_sensitivity_table_by_hand():
     table = tables.sensitivity_table(predictions).set_index("region")
     assert table["samples"].to_dict() == {"in_support": 2, "out_of_support": 2, "all": 4}
     assert table["evaluated_on"].iloc[0].endswith("tuned on in-support rows")
-    noted = tables.sensitivity_table(predictions, residual.capped_note(3, 4))
+    noted = tables.sensitivity_table(predictions, capped_note(3, 4))
     says(noted["evaluated_on"].iloc[0], "at most 3", "residual_model.max_train_rows")
     expected = {
         "rmse_surrogate_only": (1.0, math.sqrt(6.5), math.sqrt(15 / 4)),

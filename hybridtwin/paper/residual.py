@@ -61,16 +61,6 @@ def fitted_estimator(model):
     return getattr(model, "estimator_", model)
 
 
-def capped_note(max_train_rows: int | None, n_rows: int) -> str:
-    """How a table says that its residual models were fitted on a sample ('' when they were not)."""
-    if max_train_rows is None or n_rows <= max_train_rows:
-        return ""
-    return (
-        f"; each model fitted on a seeded sample of at most {max_train_rows:,} of its training rows "
-        "(residual_model.max_train_rows)"
-    )
-
-
 def save_model(model, path, inputs=None) -> None:
     """XGBoost's own JSON format: loads with xgboost alone, no code runs.
 

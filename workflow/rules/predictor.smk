@@ -18,6 +18,10 @@ rule prediction_intervals:
         surrogate=rules.surrogate_fit.output.model,
         extension=rules.model_extension.output.extension,
         peers_summary=expand(f"{RESULTS}/peers/{{peer}}.json", peer=PEERS),
+        # the rest of what the frozen predictor reads, for the sweeps along the named causes
+        residual_models=[model_file("residual_filtered"), model_file("residual_unfiltered")],
+        remainder=rules.model_extension.output.remainder,
+        summary=rules.diagnose.output.summary,
     output:
         manifest=f"{MODELS}/predictor.json",
         reach=model_file("production_reach"),
@@ -27,6 +31,11 @@ rule prediction_intervals:
             f"{FIGURES}/prediction_intervals.png",
             caption="../report/prediction_intervals_figure.rst",
             category="7. What-if predictions",
+        ),
+        sweeps=report(
+            expand(f"{FIGURES}/sweep_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
+            caption="../report/cause_sweep.rst",
+            category="6. Diagnosis",
         ),
     log:
         log_of("prediction_intervals"),
@@ -59,31 +68,6 @@ PREDICTOR_FILES = [
     model_file("production_reach"),
     [model_file(name) for name in PEERS],
 ]
-
-
-rule cause_sweeps:
-    input:
-        manifest=rules.prediction_intervals.output.manifest,
-        models=PREDICTOR_FILES,
-        summary=rules.diagnose.output.summary,
-        production=CHECKED["production"],
-    output:
-        figures=report(
-            expand(f"{FIGURES}/sweep_{{rank}}.png", rank=range(1, N_CAUSE_FIGURES + 1)),
-            caption="../report/cause_sweep.rst",
-            category="6. Diagnosis",
-        ),
-    log:
-        log_of("cause_sweeps"),
-    benchmark:
-        benchmark_of("cause_sweeps")
-    priority: 1
-    conda:
-        "../envs/hybridtwin.yaml"
-    params:
-        code=PACKAGE_CODE,
-    script:
-        "../../scripts/cause_sweeps.py"
 
 
 rule whatif:
