@@ -556,6 +556,36 @@ def test_a_sigmoid_whose_change_fits_inside_its_data_stays():
     assert fitting._unseen_saturation_last([], 0.5, narrow.candidate) == []
 
 
+@pytest.mark.parametrize(
+    "carried_on,moved",
+    [(0.76, True), (0.73, False), (0.70, False)],  # the saturation explains 0.6875 (1 - 1.25 / 4); tolerance 0.05
+)
+def test_a_parabola_goes_ahead_of_a_saturation_only_where_carried_on_it_predicts_clearly_better(carried_on, moved):
+    saturation = _predicting("sigmoid", SAME, 3, cv_mse=1.25)
+    saturation.shape_mse = 1.25
+    parabola = _predicting("quadratic", APART, 2, cv_mse=2.0)  # held flat, it explains less: 0.5
+    parabola.shape_mse = 4.0 * (1.0 - carried_on)
+    fits = [saturation, _predicting("linear", APART, 1), parabola]
+    expected = [parabola, saturation, fits[1]] if moved else fits
+    assert fitting._parabola_the_data_follow(fits) == expected
+    assert fitting._parabola_the_data_follow([parabola, saturation]) == [parabola, saturation]  # nothing to move
+    assert fitting._parabola_the_data_follow([]) == []
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_parabola_steep_at_its_sparse_end_is_named_a_parabola_and_a_saturation_a_saturation(seed):
+    # a long upper tail of values (a cushion force's), the vertex at the 15th percentile: held out by value, the
+    # parabola held flat beyond its values predicted the steep end flat, and a saturation won (structures 60040)
+    rng = np.random.default_rng(seed)
+    x = 290.0 + rng.gamma(2.0, 12.0, 1500)
+    noise = rng.normal(0.0, 1.0, len(x))
+    cushion = Candidate.new("cushion_kn", "input", x, ("cushion_kn",))
+    parabola = 0.005 * (x - np.quantile(x, 0.15)) ** 2 + noise
+    saturation = 6.0 / (1.0 + np.exp(-(x - np.quantile(x, 0.5)) / 4.0)) + noise
+    for y, named in ((parabola, "quadratic"), (saturation, "sigmoid")):
+        assert fitting.best_fit(cushion, y - y.mean(), Settings(seed=0), 0.6).form.name == named
+
+
 def _trend(**scores) -> fitting.Fit:
     fit = _scored(**scores)
     fit.form = forms.Monotone()

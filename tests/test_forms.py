@@ -29,6 +29,10 @@ def test_quadratic_fits_exact_data_and_holds_its_ends():
     assert form.predict([12.0, -2.0]) == pytest.approx([36.0, 16.0])
     assert form.describe("t", "mm") == "quadratic in t, vertex at 4"
     says(forms.Quadratic().fit(X, 2.0 * (X - 3.0) ** 2).describe("t", "mm"), "quadratic", "t", "3")
+    # held out, the parabola itself is carried on: which shape the data follow beyond the values
+    assert form.continued([12.0, -2.0]) == pytest.approx([64.0, 36.0])
+    line = forms.Linear().fit(X, 2.0 * X)
+    assert line.continued([12.0]) == pytest.approx(line.predict([12.0]))  # a form not held flat: the same
 
 
 def test_sigmoid_recovers_threshold_width_and_amplitude():

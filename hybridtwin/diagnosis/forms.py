@@ -49,6 +49,11 @@ class Form:
     def _predict(self, x):
         raise NotImplementedError
 
+    def continued(self, x):
+        """The form's own continuation beyond the values it was fitted on (its held-out prediction): the
+        function itself, where :meth:`predict` holds a fitted curvature flat."""
+        return self._predict(x)
+
     def to_dict(self) -> dict:
         return {"form": self.name, **{k: json_safe(v) for k, v in vars(self).items()}}
 
@@ -77,7 +82,8 @@ class Linear(Form):
 
 
 class Quadratic(Form):
-    """A parabola inside the fitted range, held constant beyond it: curvature is not extrapolated."""
+    """A parabola inside the fitted range, held constant beyond it: curvature is not extrapolated (held out, its
+    continuation says which shape the data follow)."""
 
     name, n_params = "quadratic", 2
 
@@ -89,8 +95,10 @@ class Quadratic(Form):
         return self
 
     def _predict(self, x):
-        clipped = np.clip(np.asarray(x, float), self.low, self.high)
-        return np.polyval(self.coefficients, clipped - self.center)
+        return self.continued(np.clip(np.asarray(x, float), self.low, self.high))
+
+    def continued(self, x):
+        return np.polyval(self.coefficients, np.asarray(x, float) - self.center)
 
     def describe(self, column, unit, x_unit=""):
         a, b, _ = self.coefficients
