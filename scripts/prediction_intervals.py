@@ -55,23 +55,18 @@ def main(snakemake):
         snakemake.output.figure,
     )
     # here, not in a step of its own: a process start (2 s) for half a second of sweeps
-    write_sweeps(Predictor.load(Path(snakemake.output.manifest).parent), snakemake.input, snakemake.output.sweeps)
-
-
-def write_sweeps(predictor, found, paths):
-    causes = files.read_json(found.summary)["selected"]
-    columns = sorted({cause["columns"][0] for cause in causes if cause["kind"] != "group"})
-    sweeps = pipeline.cause_sweeps(predictor, causes, read_checked(found.production, columns))
-    spec = predictor.spec
-    for rank, path in enumerate(paths, start=1):
-        shown = sweeps[rank - 1] if rank <= len(sweeps) else None
-        if shown is None:
-            why = f"no cause {rank}" if rank > len(causes) else f"cause {rank} is an id: no sweep can show it"
-            files.save_figure(plots.placeholder(why), path)
-            continue
-        column, answers = shown
-        doe_range = predictor.doe_range.get(column, (float("nan"), float("nan")))
-        files.save_figure(plots.sweep(answers, column, doe_range, spec["target"], spec["unit"]), path)
+    predictor = Predictor.load(Path(snakemake.output.manifest).parent)
+    named = files.read_json(snakemake.input.summary)["selected"]
+    figures = plots.cause_sweeps(
+        pipeline.cause_sweeps(predictor, named, log),
+        len(named),
+        len(snakemake.output.sweeps),
+        predictor.doe_range,
+        spec.target,
+        p.unit,
+    )
+    for figure, path in zip(figures, snakemake.output.sweeps):
+        files.save_figure(figure, path)
 
 
 run(snakemake, main)

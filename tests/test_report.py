@@ -129,3 +129,15 @@ def test_the_front_page_says_an_effect_is_too_small_to_tell():
     lines = summary._errors({**_summary(2.0, selected=False), "too_small": small}, "draw-in", "mm")
     says("\n".join(lines), "none beyond the offset", "Too small to tell", "``ambient_temp_c``", "0.61 mm (std)")
     assert not any("Too small" in line for line in summary._errors(_summary(2.0, selected=False), "draw-in", "mm"))
+
+
+def test_a_sweep_figure_per_rank_or_why_there_is_none(monkeypatch):
+    from hybridtwin.report import plots
+
+    drawn, said = [], []
+    monkeypatch.setattr(plots, "sweep", lambda answers, name, doe_range, *_: drawn.append((name, doe_range)) or name)
+    monkeypatch.setattr(plots, "placeholder", lambda text: said.append(text) or text)
+    sweeps = [None, ("die_temp_c", pd.DataFrame())]  # cause 1 an id, cause 2 a column
+    figures = plots.cause_sweeps(sweeps, 2, 3, {"die_temp_c": (20.0, 50.0)}, "draw_in_mm", "mm")
+    assert figures == ["cause 1 is an id: no sweep can show it", "die_temp_c", "no cause 3"]
+    assert drawn == [("die_temp_c", (20.0, 50.0))] and len(said) == 2

@@ -263,6 +263,21 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
     return figure
 
 
+def cause_sweeps(sweeps: list, n_causes: int, n_figures: int, doe_range: dict, target: str, unit: str) -> list:
+    """One figure per rank (``n_figures`` of them): the sweep along the rank-th named cause (``sweeps``, from
+    :func:`hybridtwin.pipeline.cause_sweeps`: (column, answers), or None for an id), or why there is none."""
+    figures = []
+    for rank in range(1, n_figures + 1):
+        shown = sweeps[rank - 1] if rank <= len(sweeps) else None
+        if shown is None:
+            why = f"no cause {rank}" if rank > n_causes else f"cause {rank} is an id: no sweep can show it"
+            figures.append(placeholder(why))
+            continue
+        column, answers = shown
+        figures.append(sweep(answers, column, doe_range.get(column, (float("nan"), float("nan"))), target, unit))
+    return figures
+
+
 TRUST_COLORS = {"validated": "#2a9d3f", "calibrated": "#e08a1e", "extrapolation": "#c8302c"}
 
 
