@@ -55,14 +55,14 @@ def plant(index: int, seed: int):
     return name, doe, production.iloc[:n], production.iloc[n:].reset_index(drop=True), list(inputs), target
 
 
-def matched_cases(doe, log, inputs, target, rng) -> pd.DataFrame:
-    """Seven plant trials re-simulated: the log's parts nearest the DoE's centre, the simulator with its scatter."""
+def matched_cases(doe, log, inputs, target, rng, simulate=None) -> pd.DataFrame:
+    """Seven plant trials re-simulated: the log's parts nearest the DoE's centre, the simulator (``simulate`` on a
+    frame of the plant's columns; the demo's by default) with its scatter."""
     centre = (log[inputs] - doe[inputs].mean()) / doe[inputs].std()
     rows = np.argsort((centre**2).sum(axis=1).to_numpy())[:7]
     cases = log.iloc[rows][inputs].reset_index(drop=True)
-    cases["simulated"] = demo.simulator(cases.rename(columns=dict(zip(inputs, demo.INPUT_NAMES)))) + rng.normal(
-        0, 1.3, len(cases)
-    )
+    simulate = simulate or (lambda frame: demo.simulator(frame.rename(columns=dict(zip(inputs, demo.INPUT_NAMES)))))
+    cases["simulated"] = simulate(cases) + rng.normal(0, 1.3, len(cases))
     cases["measured"] = log.iloc[rows][target].to_numpy()
     return cases
 
