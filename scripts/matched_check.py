@@ -1,5 +1,5 @@
 """Step 7: external check on the matched cases -> their support (with the workflow's gate), matched_check.csv,
-per-case table, Figure 2."""
+per-case table, Figure 2; step 8: Figure 3, the error distributions of the surrogate and the hybrids."""
 
 from hybridtwin.io import data, files
 from hybridtwin.io.files import in_support, read_checked
@@ -28,8 +28,11 @@ def main(snakemake):
     )
     files.write_csv(summary, snakemake.output.summary)
     files.write_csv(cases, snakemake.output.cases)
-    shown = tables.residual_check(read_checked(snakemake.input.predictions), cases, summary)
+    predictions = read_checked(snakemake.input.predictions)
+    shown = tables.residual_check(predictions, cases, summary)
     files.save_figure(plots.residual_check(**shown, unit=p.unit), snakemake.output.figure)
+    errors = tables.error_groups(predictions, cases)
+    files.save_figure(plots.error_distributions(errors, p.unit), snakemake.output.errors)
 
 
 run(snakemake, main)

@@ -34,8 +34,6 @@ from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
 
 # test rows scored per region: a coverage near 90% is known to +-0.2 points (95%) from 100,000 rows, and a plant log
 # of ten million parts would otherwise spend minutes on the table
-# test rows scored per region: a coverage near 90% is known to +-0.2 points (95%) from 100,000 rows, and a plant log
-# of ten million parts would otherwise spend minutes on the table
 MAX_TEST_ROWS = 100_000
 
 
