@@ -177,18 +177,18 @@ def new_form(values: pd.Series, start: int) -> int | None:
     (digits aside: a new supplier's ids) and keep it, if that is before ``start`` or within WINDOW parts after it
     (a change that begins with a new regime is found late), else None.
 
-    Only ids have forms: numbers in a form, so that before the new form some form holds several values; labels (a
-    shift A, B, C) are each their own form. A batch of long coils holds a few ids only (two to eight in 10,000
-    parts on the structures generator's plants), which is still ids."""
+    Only ids have forms: numbers in a form, so that some form holds several values; labels (a shift A, B, C) are
+    each their own form. A batch of long coils holds a few ids only (two to eight in 10,000 parts on the
+    structures generator's plants, one of them before the change), which is still ids."""
     if pd.api.types.is_numeric_dtype(values) or len(values) < 2:
         return None
-    text = values.astype(str).to_numpy()
     forms = values.astype(str).str.replace(r"\d", "0", regex=True).to_numpy()
+    if len(set(forms.tolist())) >= values.nunique():  # labels, not ids
+        return None
     seen = pd.Series(forms).groupby(forms).cumcount().to_numpy() == 0  # the first part of each form
     first = np.flatnonzero(seen)[1:]
     for at in first[first >= MIN_BEFORE]:
-        ids = len(set(text[:at].tolist())) > len(set(forms[:at].tolist()))
-        if ids and at <= start + WINDOW and np.mean(~np.isin(forms[at:], forms[:at])) >= 0.9:
+        if at <= start + WINDOW and np.mean(~np.isin(forms[at:], forms[:at])) >= 0.9:
             return int(at)
     return None
 
