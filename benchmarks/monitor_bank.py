@@ -112,7 +112,8 @@ def changed(predictor, batch, case, kind, rng) -> tuple[pd.DataFrame, str | None
         out.loc[after, target] += ids.map(levels).to_numpy(float)
         out.loc[after, coil] = "NEW-" + ids
         return out, coil, NEW
-    setting, step, simulate = _setting(case, out, rng)  # a step in a setting: re-shimmed, or another one moved
+    setting, step = _setting(case, out, rng)  # a step in a setting: re-shimmed, or another one moved
+    simulate = plant_simulator(case)
     before = out.loc[~after, setting].to_numpy(float)[-300:]
     new = out.copy()
     new.loc[after, setting] = before.max() + step + rng.normal(0, step / 15, after.sum())
@@ -123,17 +124,22 @@ def changed(predictor, batch, case, kind, rng) -> tuple[pd.DataFrame, str | None
     return new, setting, NEW
 
 
-def _setting(case, batch, rng) -> tuple[str, float, object]:
-    """The setting a re-setup moves, by how much, and the plant's simulator on a frame of its columns: a shim by
-    0.03 mm on the families' plants; on the structures' plants a model input that is not a coil's material, by a
-    tenth of its spread in the batch."""
+def plant_simulator(case):
+    """The plant's simulator on a frame of its own columns: the structures plant's own, the demo's for a family."""
+    if isinstance(case, structures.StructureCase):
+        return case.simulator
+    canonical = {name: key for key, name in case.names.items() if key in demo.INPUT_NAMES}
+    return lambda frame: demo.simulator(frame[case.inputs].rename(columns=canonical))
+
+
+def _setting(case, batch, rng) -> tuple[str, float]:
+    """The setting a re-setup moves and by how much: a shim by 0.03 mm on the families' plants; on the structures'
+    plants a model input that is not a coil's material, by a tenth of its spread in the batch."""
     if isinstance(case, structures.StructureCase):
         settings = sorted(case.names[c] for c in case.names if case.names[c] in case.inputs and c not in case.per_coil)
         setting = str(rng.choice(settings))
-        return setting, 0.1 * float(np.ptp(batch[setting].to_numpy(float))), case.simulator
-    canonical = {name: key for key, name in case.names.items() if key in demo.INPUT_NAMES}
-    setting = case.names[str(rng.choice(["shim20_mm", "shim21_mm"]))]
-    return setting, 0.03, lambda frame: demo.simulator(frame[case.inputs].rename(columns=canonical))
+        return setting, 0.1 * float(np.ptp(batch[setting].to_numpy(float)))
+    return case.names[str(rng.choice(["shim20_mm", "shim21_mm"]))], 0.03
 
 
 def judge(watched, column, kind) -> bool:
@@ -159,8 +165,7 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list,
     rng = np.random.default_rng([seed, index])
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
-        simulate = case.simulator if isinstance(case, structures.StructureCase) else None
-        matched = matched_cases(case.doe, log, case.inputs, case.target, rng, simulate)
+        matched = matched_cases(case.doe, log, case.inputs, case.target, rng, plant_simulator(case))
         models = run_workflow(Path(scratch), case.doe, log, matched, case.inputs, case.target, seed)
         predictor = Predictor.load(models)
         scale = pooled_scale(predictor)
