@@ -59,9 +59,9 @@ def physical_limits(doe: np.ndarray, production: np.ndarray, margin: float) -> t
 
 def _nearest(reference: np.ndarray, points: np.ndarray, k: int) -> np.ndarray:
     """Each point's k smallest distances to the reference rows, sorted."""
-    from sklearn.neighbors import NearestNeighbors
+    from hybridtwin.paper.gate import nearest_index
 
-    distances, _ = NearestNeighbors(n_neighbors=k).fit(reference).kneighbors(points)
+    distances, _ = nearest_index(reference, k).kneighbors(points)
     return distances
 
 

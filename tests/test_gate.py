@@ -9,7 +9,7 @@ import pytest
 from sklearn.base import clone
 
 from hybridtwin.paper import residual
-from hybridtwin.paper.gate import DoEStandardizer, InputColumnsError, KNNSupportGate
+from hybridtwin.paper.gate import DoEStandardizer, InputColumnsError, KNNSupportGate, nearest_index
 
 DOE = np.array([[0.0, 1.0], [2.0, 3.0], [4.0, 8.0]])
 
@@ -77,6 +77,20 @@ LINE = np.array([0.0, 1.0, 3.0, 6.0, 10.0])[:, None]
 
 
 LINE_STD = math.sqrt(16.5)
+
+
+def test_the_neighbour_index_gives_the_exact_k_nearest_distances():
+    from scipy.spatial.distance import cdist
+
+    rng = np.random.default_rng(0)
+    reference = rng.normal(0, 3, (300, 12))
+    # fresh rows, rows that repeat a reference row, and rows a hair away from one
+    rows = np.vstack([rng.normal(0, 3, (500, 12)), reference[:20], reference[20:30] + 1e-9])
+    distances = nearest_index(reference, 5).kneighbors(rows)[0]
+    exact = np.sort(cdist(rows, reference), axis=1)[:, :5]
+    np.testing.assert_allclose(distances[:500], exact[:500], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(distances, exact, rtol=0, atol=1e-6)
+    assert np.all(distances[500:520, 0] == 0.0)
 
 
 def test_gate_leave_one_out_distances_k1():

@@ -11,9 +11,9 @@ period as novel as the most novel of the log's.
 from __future__ import annotations
 
 import numpy as np
-from sklearn.neighbors import NearestNeighbors
 
 from hybridtwin.crossval import training_subset
+from hybridtwin.paper.gate import nearest_index
 
 
 class ProductionNeighbourhood:
@@ -31,7 +31,7 @@ class ProductionNeighbourhood:
         others = np.empty(len(rows))
         for b in np.unique(block):
             mine = block == b
-            rest = NearestNeighbors(n_neighbors=min(self.k, int((~mine).sum()))).fit(self.parts_[~mine])
+            rest = nearest_index(self.parts_[~mine], min(self.k, int((~mine).sum())))
             others[mine] = rest.kneighbors(self.parts_[mine])[0].mean(axis=1)
         self.threshold_ = float(others.max())
         return self
@@ -39,7 +39,7 @@ class ProductionNeighbourhood:
     def distance(self, Z) -> np.ndarray:
         """Mean distance of each row to its k nearest logged parts."""
         k = min(self.k, len(self.parts_))
-        return NearestNeighbors(n_neighbors=k).fit(self.parts_).kneighbors(np.asarray(Z, float))[0].mean(axis=1)
+        return nearest_index(self.parts_, k).kneighbors(np.asarray(Z, float))[0].mean(axis=1)
 
     def to_dict(self) -> dict:
         return {
