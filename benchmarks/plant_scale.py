@@ -5,11 +5,13 @@
 Runs ``snakemake --cores 2`` on the default config with ``demo.n_production`` set to ``--rows``, in
 its own results folder (``runs/scale_<rows>``, so the demo's results stay): first only the demo plant's
 files (rule demo_data, timed apart, since a plant's own run starts from its files), then the whole
-workflow on them. Prints that run's wall time and the per-rule table from the Snakemake benchmark
-files (slowest first; demo_data among them), and the largest memory of all its processes at once.
+workflow on them, from a results folder emptied but for those files. Prints that run's wall time and the
+per-rule table from the Snakemake benchmark files (slowest first; demo_data among them), and the largest memory
+of all its processes at once.
 """
 
 import argparse
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -44,6 +46,15 @@ def peak_memory_of(process: subprocess.Popen, every: float = 0.5) -> tuple[int, 
     return peak, at_peak
 
 
+def clear_results(results: Path, keep: str) -> None:
+    """Empty a run's results folder but for the plant's files (folder ``keep``): every step then runs from
+    scratch, a tuning study does not resume the trials of an earlier run, and no benchmark file of a step that
+    no longer exists is counted."""
+    for entry in results.iterdir():
+        if entry.name != keep:
+            shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", type=int, default=1_000_000)
@@ -61,6 +72,7 @@ def main() -> None:
     start = time.perf_counter()
     made = subprocess.run([*command[:1], *config["data"].values(), *command[1:]])  # targets before --configfile
     made_seconds = time.perf_counter() - start
+    clear_results(Path(results), keep=Path(config["data"]["doe"]).parent.name)
     start = time.perf_counter()
     if made.returncode == 0:
         run = subprocess.Popen(command)
