@@ -59,7 +59,9 @@ rule model_extension:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    threads: 1
+    # both cores: it runs alone on the critical path (the peers and the proposals are done by then), and its
+    # XGBoost fits and predictions, most of its time on a long log, do not depend on the thread count
+    threads: 2
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "max_train_rows"),
