@@ -44,7 +44,6 @@ from plain_baselines import PLAIN_GP, PLAIN_MFK, plain_baselines
 from scipy.stats import qmc
 
 from hybridtwin import pipeline
-from hybridtwin.answers.intervals import recommended_prediction
 from hybridtwin.io import files
 from hybridtwin.models import registry
 
@@ -152,7 +151,7 @@ def scored(case: dict, predictions, residuals, run: dict, seed: int) -> dict:
     )
     level = config["intervals"]["level"]
     honest = dict(calibrated.honest)
-    picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
+    picked = calibrated.recommended(level)
     honest[registry.RECOMMENDED] = picked[registry.RECOMMENDED_COLUMN].to_numpy(float)
     honest.update(plain_baselines(case["doe"], case["production"], residuals, case["inputs"], TARGET, seed, spec.folds))
     inside = residuals["in_support"].to_numpy(bool)

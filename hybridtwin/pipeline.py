@@ -278,10 +278,9 @@ def comparison(
     predictions, calibrated, level: float, matched_measured, matched: dict, fits: dict, truth=None, noise=None
 ):
     """peer_comparison.csv: every model and the recommended one on the same held-out production rows."""
-    from hybridtwin.answers.intervals import recommended_prediction
     from hybridtwin.models.peers import comparison_table
 
-    picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
+    picked = calibrated.recommended(level)
     models = {**calibrated.honest, registry.RECOMMENDED: picked[registry.RECOMMENDED_COLUMN].to_numpy(float)}
     return comparison_table(
         predictions["measured"],

@@ -3,7 +3,7 @@ data of its figure."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -183,6 +183,14 @@ class Calibration:
     region: Regions
     calibration: np.ndarray
     honest: dict[str, np.ndarray]  # with the stack
+    _picked: dict = field(default_factory=dict, init=False, repr=False)
+
+    def recommended(self, level: float) -> pd.DataFrame:
+        """The recommended model's prediction and interval on every production row (honest predictions), computed
+        once per level: the monitor's calibration and the peer comparison both read it (0.8 s on ten million)."""
+        if level not in self._picked:
+            self._picked[level] = recommended_prediction(self.intervals, self.honest, self.region, level)
+        return self._picked[level]
 
 
 def calibrate(

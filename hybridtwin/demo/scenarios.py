@@ -452,17 +452,13 @@ def compare_models(
     (``holds_<region>``: the recommended model has the lowest measured RMSE on the region's test rows).
     ``others(run)``: more honest predictions by name (a benchmark's baselines), scored on the same rows.
     """
-    from hybridtwin.answers.intervals import recommended_prediction
-
     peers = {**configuration.section_defaults("peers"), **(peer_settings or {})}
     run = harness.Run.of(case, seed, n_jobs, peers=peers)
     result = run.diagnose(settings or diagnosis.Settings(seed=seed, n_jobs=n_jobs))
     calibrated = run.calibrate(run.predictions(result.terms), case.truth)
     honest = dict(calibrated.honest)
     level = run.config["intervals"]["level"]
-    honest[registry.RECOMMENDED] = recommended_prediction(
-        calibrated.intervals, calibrated.honest, calibrated.region, level
-    )[registry.RECOMMENDED_COLUMN].to_numpy()
+    honest[registry.RECOMMENDED] = calibrated.recommended(level)[registry.RECOMMENDED_COLUMN].to_numpy()
     extra = others(run) if others is not None else {}
     honest.update(extra)
     scored = truth_scores(case.truth, honest, ~calibrated.calibration, run.inside, (*COMPARED_MODELS, *extra))

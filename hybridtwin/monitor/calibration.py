@@ -131,9 +131,7 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
     """The ``monitor`` key of predictor.json from the prediction_intervals rule's calibration (its intervals,
     honest predictions and regions), the log's measured target, the production log itself (every column, in
     the same time order) and the columns of the extension's causes."""
-    from hybridtwin.answers.intervals import recommended_prediction
-
-    picked = recommended_prediction(calibrated.intervals, calibrated.honest, calibrated.region, level)
+    picked = calibrated.recommended(level)
     expected = chart.expected_error(calibrated.intervals, picked["recommended_model"], calibrated.region.interval)
     residual = np.asarray(measured, float) - picked[RECOMMENDED_COLUMN].to_numpy(float)
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
