@@ -30,7 +30,7 @@ from results_files import write_results
 from hybridtwin import demo
 from hybridtwin.answers.coverage import clopper_pearson
 from hybridtwin.answers.predictor import Predictor
-from hybridtwin.demo import families
+from hybridtwin.demo import families, structures
 from hybridtwin.monitor import watch
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -40,28 +40,37 @@ SIZES = (3000, 8000, 20000, 70000)
 
 
 def plant(index: int, seed: int):
-    """The index-th plant: (name, DoE, log, fresh parts, inputs, target), sizes cycling through SIZES."""
+    """The index-th plant: (name, DoE, log, fresh parts, inputs, target, its simulator), sizes cycling through
+    SIZES."""
     n = SIZES[index % len(SIZES)]
     draw = seed * 100 + index
     if index % 3 == 0:
         frames = demo.generate(replace(demo.DemoPlant(), seed=draw, n_production=n + N_FRESH))
-        production, doe = frames["production"], frames["doe"]
+        production, doe, simulate = frames["production"], frames["doe"], demo.simulator
         inputs, target, name = demo.INPUT_NAMES, demo.TARGET, f"demo seed {draw}"
     else:
         family = families.FAMILIES[index % len(families.FAMILIES)]
         case = families.draw_plant(family, draw, n_production=n + N_FRESH)
         production, doe, inputs, target = case.production, case.doe, case.inputs, case.target
-        name = f"{family} seed {draw}"
-    return name, doe, production.iloc[:n], production.iloc[n:].reset_index(drop=True), list(inputs), target
+        name, simulate = f"{family} seed {draw}", plant_simulator(case)
+    return name, doe, production.iloc[:n], production.iloc[n:].reset_index(drop=True), list(inputs), target, simulate
 
 
-def matched_cases(doe, log, inputs, target, rng, simulate=None) -> pd.DataFrame:
-    """Seven plant trials re-simulated: the log's parts nearest the DoE's centre, the simulator (``simulate`` on a
-    frame of the plant's columns; the demo's by default) with its scatter."""
+def plant_simulator(case):
+    """The plant's simulator on a frame of its own columns: a structures plant's own; the demo's for a family's
+    plant, its columns renamed to the demo's."""
+    if isinstance(case, structures.StructureCase):
+        return case.simulator
+    canonical = {name: key for key, name in case.names.items() if key in demo.INPUT_NAMES}
+    return lambda frame: demo.simulator(frame[case.inputs].rename(columns=canonical))
+
+
+def matched_cases(doe, log, inputs, target, rng, simulate) -> pd.DataFrame:
+    """Seven plant trials re-simulated: the log's parts nearest the DoE's centre, the plant's simulator
+    (``simulate`` on a frame of its columns) with its scatter."""
     centre = (log[inputs] - doe[inputs].mean()) / doe[inputs].std()
     rows = np.argsort((centre**2).sum(axis=1).to_numpy())[:7]
     cases = log.iloc[rows][inputs].reset_index(drop=True)
-    simulate = simulate or (lambda frame: demo.simulator(frame.rename(columns=dict(zip(inputs, demo.INPUT_NAMES)))))
     cases["simulated"] = simulate(cases) + rng.normal(0, 1.3, len(cases))
     cases["measured"] = log.iloc[rows][target].to_numpy()
     return cases
@@ -140,9 +149,9 @@ def main() -> None:
     args = parser.parse_args()
     rows = []
     for index in range(args.plants):
-        name, doe, log, fresh, inputs, target = plant(index, args.seed)
+        name, doe, log, fresh, inputs, target, simulate = plant(index, args.seed)
         with tempfile.TemporaryDirectory() as scratch:
-            matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index))
+            matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index), simulate)
             models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
             predictor = Predictor.load(models)
             answers = predictor.predict(fresh, all_models=True)

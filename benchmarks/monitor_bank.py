@@ -35,11 +35,10 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fresh_coverage import matched_cases, run_workflow  # noqa: E402
+from fresh_coverage import matched_cases, plant_simulator, run_workflow  # noqa: E402
 
 from hybridtwin.answers.predictor import Predictor  # noqa: E402
 from hybridtwin.demo import families, structures  # noqa: E402
-from hybridtwin.demo import plant as demo  # noqa: E402
 from hybridtwin.monitor import chart, watch  # noqa: E402
 from hybridtwin.monitor.changes import KNOWN, NEW, UNEXPLAINED, clocks  # noqa: E402
 
@@ -122,14 +121,6 @@ def changed(predictor, batch, case, kind, rng) -> tuple[pd.DataFrame, str | None
     answer = simulate(new.loc[after]) - simulate(out.loc[after])
     new.loc[after, target] += answer + 3 * noise
     return new, setting, NEW
-
-
-def plant_simulator(case):
-    """The plant's simulator on a frame of its own columns: the structures plant's own, the demo's for a family."""
-    if isinstance(case, structures.StructureCase):
-        return case.simulator
-    canonical = {name: key for key, name in case.names.items() if key in demo.INPUT_NAMES}
-    return lambda frame: demo.simulator(frame[case.inputs].rename(columns=canonical))
 
 
 def _setting(case, batch, rng) -> tuple[str, float]:
