@@ -72,9 +72,10 @@ def main() -> None:
     start = time.perf_counter()
     made = subprocess.run([*command[:1], *config["data"].values(), *command[1:]])  # targets before --configfile
     made_seconds = time.perf_counter() - start
-    clear_results(Path(results), keep=Path(config["data"]["doe"]).parent.name)
     start = time.perf_counter()
     if made.returncode == 0:
+        clear_results(Path(results), keep=Path(config["data"]["doe"]).parent.name)
+        start = time.perf_counter()
         run = subprocess.Popen(command)
         peak, at_peak = peak_memory_of(run)
     else:

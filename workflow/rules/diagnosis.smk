@@ -59,8 +59,8 @@ rule model_extension:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    # both cores: it runs alone on the critical path (the peers and the proposals are done by then), and its
-    # XGBoost fits and predictions, most of its time on a long log, do not depend on the thread count
+    # both cores: on the critical path, alone in the runs measured (demo and ten million parts); its XGBoost fits
+    # and predictions, most of its time on a long log, give the same tables on one thread or two
     threads: 2
     params:
         code=PACKAGE_CODE,
