@@ -250,8 +250,7 @@ def figure_data(calibrated: Calibration, measured, distance, level: float, seed:
     shown = np.sort(np.random.default_rng(seed).choice(test, min(len(test), n_shown), replace=False))
     # the half-widths' medians on a seeded sample of a long log (every row up to MAX_TEST_ROWS), with the shown rows
     rows = np.union1d(shown, subsample(np.arange(len(calibrated.region.interval)), MAX_TEST_ROWS, seed))
-    honest = {model: prediction[rows] for model, prediction in calibrated.honest.items()}
-    picked = recommended_prediction(calibrated.intervals, honest, calibrated.region[rows], level)
+    picked = calibrated.recommended(level).iloc[rows]  # every row's, computed once (the monitor's calibration)
     error = np.asarray(measured, float)[rows] - picked[RECOMMENDED_COLUMN].to_numpy(float)
     half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
     region = calibrated.region.interval[rows]
