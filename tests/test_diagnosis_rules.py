@@ -617,3 +617,61 @@ def test_coil_offsets_within_what_the_surrogate_error_gives_between_coils_are_no
     frame["m1"] = rng.uniform(-1, 1, len(coil))
     varied = _diagnose(frame, 1.2 * offsets + noise, surrogate_std=1.0, inputs=("m1",))
     assert [f.candidate.name for f in varied.selected] == ["coil"]
+
+
+def _coils(n_coils: int, parts: int, seed: int):
+    """An id of ``n_coils`` levels in time order, ``parts`` parts each, and two per-coil columns."""
+    rng = np.random.default_rng(seed)
+    coil = np.repeat(np.arange(n_coils), parts)
+    labels = np.array([f"C{c:03d}" for c in coil])
+    thickness = rng.normal(0.7, 0.02, n_coils)[coil]
+    strength = rng.normal(300, 20, n_coils)[coil]
+    candidates = [
+        Candidate.new("coil", "group", labels, ("coil",)),
+        Candidate.new("thickness", "input", thickness, ("thickness",)),
+        Candidate.new("strength", "input", strength, ("strength",)),
+        Candidate.new("die_temp", "input", rng.normal(40, 5, len(coil)), ("die_temp",)),  # varies within coils
+    ]
+    return rng, coil, candidates
+
+
+def test_a_column_an_id_holds_is_judged_over_its_levels_against_the_columns_it_holds_shuffled():
+    rng, coil, candidates = _coils(16, 50, seed=3)
+    group, thickness, strength, die_temp = candidates
+    assert [c.name for c in ids.held_columns(group, candidates)] == ["thickness", "strength"]
+    assert ids.level_chance_p(die_temp, group, rng.normal(size=len(coil)), candidates, seed=0) is None
+    # a true per-coil effect: the level means lie on its form
+    true = 3 * (thickness.values - 0.7) / 0.02 + rng.normal(0, 0.3, len(coil))
+    assert ids.level_chance_p(thickness, group, true, candidates, seed=0) == pytest.approx(1 / 200)
+    # random coil offsets: over many plants the column fits them beyond chance at the level's rate only
+    p_values = [
+        ids.level_chance_p(thickness, group, np.random.default_rng(s).normal(size=16)[coil], candidates, seed=s)
+        for s in range(40)
+    ]
+    assert np.mean(np.array(p_values) < 0.05) <= 0.1
+    assert np.median(p_values) > 0.3
+
+
+def test_the_level_shares_are_the_closed_forms_fitted_to_the_weighted_level_means():
+    rng = np.random.default_rng(0)
+    x, means, counts = rng.normal(size=12), rng.normal(size=12), rng.integers(5, 50, 12)
+    xx, yy = np.repeat(x, counts), np.repeat(means, counts)
+    shares = [
+        1 - np.sum((yy - forms.fit_form(name, xx, yy).predict(xx)) ** 2) / np.sum((yy - yy.mean()) ** 2)
+        for name in ("linear", "quadratic")
+    ]
+    assert ids.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(shares) - 1e-9
+    # a step between the levels, by exhaustive search over the splits with two levels on each side
+    order = np.argsort(x)
+    steps = []
+    for k in range(2, 11):
+        below = np.repeat(np.isin(np.arange(12), order[:k]), counts)
+        fitted = np.where(below, yy[below].mean(), yy[~below].mean())
+        steps.append(1 - np.sum((yy - fitted) ** 2) / np.sum((yy - yy.mean()) ** 2))
+    assert ids.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(steps) - 1e-9
+
+
+def test_a_column_that_fits_an_ids_level_means_by_chance_does_not_go_before_it():
+    coil = _scored("coil", "group", 0.8)
+    assert not smooth_first(_scored("thickness", "input", 0.6), coil, accounted=0.4, by_chance=lambda: True)
+    assert smooth_first(_scored("thickness", "input", 0.6), coil, accounted=0.0, by_chance=lambda: False)

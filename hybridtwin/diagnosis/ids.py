@@ -28,7 +28,7 @@ from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from hybridtwin.diagnosis.candidates import Candidate
 from hybridtwin.diagnosis.fits import Fit, Rules, is_significant
-from hybridtwin.diagnosis.forms import fit_form
+from hybridtwin.diagnosis.forms import SIGMOID_WIDTH_SHARES, fit_form
 from hybridtwin.diagnosis.naming import between_level_ss
 from hybridtwin.diagnosis.wording import INPUT_SURFACE
 
@@ -37,6 +37,9 @@ from hybridtwin.diagnosis.wording import INPUT_SURFACE
 LEVEL_PENALTIES = np.logspace(-3, 8, 12)
 MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets together with the input surface
 PASSES = 3  # backfitting passes of the surface and the smooth candidates
+LEVEL_HELD = 0.95  # a column with this share of its variance between an id's levels is held by the id
+LEVEL_FORMS = ("linear", "quadratic", "step", "sigmoid")  # the closed forms a held column's level means are fitted with
+LEVEL_SHUFFLES = 199  # shuffles of the level means among the held columns' values (p >= 0.005)
 
 
 def _quadratic(regression):
@@ -186,3 +189,82 @@ def surrogate_spread(error_std: float, n_levels: int, alpha: float) -> float:
     """
     dof = max(1, n_levels - 1)
     return error_std * float(np.sqrt(chi2.ppf(1.0 - alpha, dof) / dof))
+
+
+def held_columns(group: Candidate, candidates: list[Candidate]) -> list[Candidate]:
+    """The numeric columns (inputs and logged quantities) constant within the levels of ``group``, up to
+    :data:`LEVEL_HELD` of their variance: a coil's material, or settings that change only where the coil does."""
+    labels = np.asarray(group.values).astype(str)
+    numeric = [c for c in candidates if c.kind in ("input", "log")]
+    return [c for c in numeric if level_share(labels, c.values) >= LEVEL_HELD]
+
+
+def _weighted_r2(basis: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted R^2 of ``means`` on one basis function and an intercept, for every row of ``basis``
+    (..., levels): the squared weighted correlation."""
+    b = basis - np.sum(basis * weights, axis=-1, keepdims=True)
+    covariance = np.sum(weights * b * means, axis=-1)
+    spread = np.sum(weights * b * b, axis=-1) * np.sum(weights * means * means)
+    return np.divide(covariance**2, spread, out=np.zeros_like(covariance), where=spread > 0)
+
+
+def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """For each row of ``x`` (orderings of one column's level values, shape (B, L)): the largest share of the
+    weighted variance of the level ``means`` that a closed form of it fits -- linear, quadratic, a step (at least
+    two levels on each side) or a saturation (thresholds at the inner deciles, the diagnosis' widths)."""
+    weights = weights / weights.sum()
+    means = means - np.sum(weights * means)
+    z = (x - x.mean(axis=1, keepdims=True)) / (np.ptp(x, axis=1, keepdims=True) + 1e-300)
+    best = _weighted_r2(z, means, weights)
+    # quadratic: the linear share plus what the square's part orthogonal to the line adds
+    square = z**2 - np.sum(weights * z**2, axis=1, keepdims=True)
+    zc = z - np.sum(weights * z, axis=1, keepdims=True)
+    slope = np.sum(weights * square * zc, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
+    best = np.maximum(
+        best, best + _weighted_r2(square - slope * zc, means - _line(zc, means, weights), weights) * (1 - best)
+    )
+    # a step between consecutive levels in the order of x, at least two levels on each side
+    order = np.argsort(x, axis=1, kind="stable")
+    w_sorted, m_sorted = weights[order], means[order]
+    below_w, below_m = np.cumsum(w_sorted, axis=1)[:, 1:-2], np.cumsum(w_sorted * m_sorted, axis=1)[:, 1:-2]
+    total = np.sum(weights * means * means)
+    x_sorted = np.take_along_axis(x, order, axis=1)
+    changes = (x_sorted[:, 2:-1] > x_sorted[:, 1:-2]) & (below_w < 1)  # a step lies between two values
+    if below_w.shape[1] and total > 0:
+        between = below_m**2 / below_w + below_m**2 / np.where(below_w < 1, 1 - below_w, 1.0)  # the means sum to 0
+        best = np.maximum(best, np.max(np.where(changes, between, 0.0), axis=1) / total)
+    # a saturation: logistic bases at the inner deciles of the values, of the diagnosis' widths
+    thresholds = np.quantile(x[0], np.linspace(0.1, 0.9, 9))
+    span = np.ptp(x[0]) or 1.0
+    for width in SIGMOID_WIDTH_SHARES:
+        basis = 0.5 * (1 + np.tanh(0.5 * (x[:, None, :] - thresholds[None, :, None]) / (width * span)))
+        best = np.maximum(best, np.max(_weighted_r2(basis, means, weights), axis=1))
+    return best
+
+
+def _line(zc: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted least-squares line of ``means`` on the centred ``zc``, per row."""
+    slope = np.sum(weights * zc * means, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
+    return slope * zc
+
+
+def level_chance_p(column: Candidate, group: Candidate, y, candidates: list[Candidate], seed: int) -> float | None:
+    """How often the level means of ``y`` over ``group``'s levels, shuffled among the levels, are fitted by a
+    closed form of some column the id holds at least as well as ``column`` fits them unshuffled (a max-statistic
+    permutation p-value over the held columns); None where the id does not hold ``column``.
+
+    A column constant within a coil has one value per coil: its evidence is as many points as there are coils,
+    however many parts each coil has. Sixteen coils' random offsets were fitted by a step in a per-coil
+    anisotropy with 70% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.025 here
+    (structures draw 40086); a true per-coil effect leaves the level means on its form."""
+    held = held_columns(group, candidates)
+    if column.name not in {c.name for c in held}:
+        return None
+    codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
+    means = np.bincount(codes, weights=np.asarray(y, float)) / counts
+    level_values = {c.name: np.bincount(codes, weights=np.asarray(c.values, float)) / counts for c in held}
+    observed = level_fit_shares(level_values[column.name][None, :], means, counts.astype(float))[0]
+    rng = np.random.default_rng(seed)
+    orders = np.array([rng.permutation(len(means)) for _ in range(LEVEL_SHUFFLES)])
+    shuffled = np.max([level_fit_shares(x[orders], means, counts.astype(float)) for x in level_values.values()], axis=0)
+    return float((1 + np.sum(shuffled >= observed - 1e-12)) / (1 + LEVEL_SHUFFLES))

@@ -28,7 +28,7 @@ from hybridtwin.diagnosis.candidates import Candidate, build_candidates
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
-from hybridtwin.diagnosis.ids import id_stands
+from hybridtwin.diagnosis.ids import id_stands, level_chance_p
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
 from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE, SMOOTH_SHARE_OF_ID
 from hybridtwin.diagnosis.settings import Settings
@@ -105,9 +105,19 @@ class Selection:
         bar = min((f.score for f in smooth if self.rules.significant(f)), default=np.inf)
         named_id, accounted = self._next_id([f for f in pool if f.candidate.kind == "group" and f.score < bar])
         # an id whose offsets are mostly what the smooth causes do is named after them (a lubricant per coil)
-        if named_id is None or (best is not None and smooth_first(best, named_id, accounted)):
+        if named_id is None or (
+            best is not None and smooth_first(best, named_id, accounted, lambda: self._by_chance(best, named_id))
+        ):
             return best
         return named_id
+
+    def _by_chance(self, column: Fit, named_id: Fit) -> bool:
+        """Whether ``column`` is one the id holds (constant within its levels) and fits the id's level means no
+        better than the columns it holds fit them shuffled (:func:`~hybridtwin.diagnosis.ids.level_chance_p`)."""
+        p_value = level_chance_p(
+            column.candidate, named_id.candidate, self.remaining, self.candidates, self.rules.settings.seed
+        )
+        return p_value is not None and p_value >= self.rules.settings.alpha
 
     def pool(self) -> list[Fit]:
         """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
@@ -241,9 +251,13 @@ class Selection:
         return True
 
 
-def smooth_first(best: Fit, named_id: Fit, accounted: float) -> bool:
+def smooth_first(best: Fit, named_id: Fit, accounted: float, by_chance=lambda: False) -> bool:
     """Whether a significant smooth cause goes before an id that stands: the smooth candidates account for
-    enough of the id's level differences, or the best is a column that explains most of what the id does."""
+    enough of the id's level differences, or the best is a column that explains most of what the id does.
+    Never where ``by_chance()`` says the best is a column the id holds that fits its level means no better than
+    chance (a per-coil property's step fitted to random coil offsets)."""
+    if by_chance():
+        return False
     if accounted >= ID_ACCOUNTED_SMOOTH_FIRST:
         return True
     column = best.candidate.kind != "interaction"
