@@ -675,3 +675,36 @@ def test_a_column_that_fits_an_ids_level_means_by_chance_does_not_go_before_it()
     coil = _scored("coil", "group", 0.8)
     assert not smooth_first(_scored("thickness", "input", 0.6), coil, accounted=0.4, by_chance=lambda: True)
     assert smooth_first(_scored("thickness", "input", 0.6), coil, accounted=0.0, by_chance=lambda: False)
+
+
+def _per_coil_plant(seed: int, true_effect: bool):
+    """14 coils of 80 parts with offsets of their own (or an effect of a per-coil thickness), a thickness that
+    follows the offsets loosely, a per-coil strength and a die temperature that varies within coils."""
+    rng = np.random.default_rng(seed)
+    coil = np.repeat(np.arange(14), 80)
+    own = rng.normal(0, 1.5, 14)
+    thickness = 0.7 + 0.01 * (own + rng.normal(0, 1.5, 14))
+    frame = pd.DataFrame(
+        {
+            "coil": np.array([f"K{c:02d}" for c in coil]),
+            "thickness": thickness[coil] + rng.normal(0, 1e-5, len(coil)),
+            "strength": rng.normal(300, 20, 14)[coil],
+            "die_temp": rng.normal(40, 5, len(coil)),
+        }
+    )
+    effect = 150 * (frame["thickness"].to_numpy() - 0.7) if true_effect else own[coil]
+    return frame, effect + rng.normal(0, 0.5, len(coil))
+
+
+def test_coil_offsets_a_per_coil_column_fits_by_chance_name_the_coil_and_say_why():
+    frame, y = _per_coil_plant(5, true_effect=False)
+    result = _diagnose(frame, y, surrogate_std=0.3, inputs=("thickness", "strength", "die_temp"))
+    assert [f.candidate.name for f in result.selected] == ["coil"]  # without the level test: thickness, coil
+    note = result.table.set_index("cause").loc["thickness", "note"]
+    assert note.startswith("constant within each level of coil: its form fits the offsets of the 14 levels")
+
+
+def test_a_true_per_coil_effect_fits_the_level_means_beyond_chance_and_is_named():
+    frame, y = _per_coil_plant(5, true_effect=True)
+    result = _diagnose(frame, y, surrogate_std=0.3, inputs=("thickness", "strength", "die_temp"))
+    assert [f.candidate.name for f in result.selected][:1] == ["thickness"]

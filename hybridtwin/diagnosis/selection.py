@@ -76,6 +76,8 @@ class Selection:
     proxies: dict[str, tuple[tuple[str, ...], float]] = field(default_factory=dict)
     # products that gave way to one of their columns with the other causes in: no interaction, no candidate
     no_interaction: set[str] = field(default_factory=set)
+    # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
+    by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
 
     def __post_init__(self):
         self.remaining = self.y if self.remaining is None else self.remaining
@@ -117,7 +119,11 @@ class Selection:
         p_value = level_chance_p(
             column.candidate, named_id.candidate, self.remaining, self.candidates, self.rules.settings.seed
         )
-        return p_value is not None and p_value >= self.rules.settings.alpha
+        if p_value is None or p_value < self.rules.settings.alpha:
+            return False
+        levels = len(np.unique(np.asarray(named_id.candidate.values).astype(str)))
+        self.by_chance[column.candidate.name] = (named_id.candidate.name, levels, p_value)
+        return True
 
     def pool(self) -> list[Fit]:
         """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
@@ -308,7 +314,15 @@ def diagnose(
         selection.choose_again_after_the_first()
     selection.drop_products_an_id_holds()
     aliases, explained_by = confounding(selection.chosen, selection.marginal, y, rules)
-    found = Found(selection.marginal, selection.conditional, selection.chosen, aliases, explained_by, selection.proxies)
+    found = Found(
+        selection.marginal,
+        selection.conditional,
+        selection.chosen,
+        aliases,
+        explained_by,
+        selection.proxies,
+        selection.by_chance,
+    )
     table = causes_table(found, skipped, rules)
     return Diagnosis(
         offset,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -32,6 +32,7 @@ class Found:
     aliases: dict
     explained_by: dict
     proxies: dict
+    by_chance: dict = field(default_factory=dict)  # column -> (the id that holds it, its levels, p)
 
 
 def too_small(found: Found, rules: Rules) -> list:
@@ -119,6 +120,12 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
             f"an id, not a cause: {accounted_words(names)} account for {share:.0%} of the differences between its "
             "levels (fitted on its other levels), and what is left is within what the surrogate's own error "
             "gives between its levels or passes no other rule of a cause"
+        )
+    if name in found.by_chance and name not in chosen:
+        group, levels, p_value = found.by_chance[name]
+        return (
+            f"constant within each level of {group}: its form fits the offsets of the {levels} levels no better "
+            f"than the columns {group} holds fit them shuffled (p = {p_value:.2g}); {group} goes first"
         )
     if found.aliases.get(name):
         return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
