@@ -125,6 +125,7 @@ def test_the_summary_holds_what_later_steps_read():
         "explained_by",
         "skipped",
         "proxies",
+        "by_chance",
         "too_small",
     ]
     assert (summary["n_rows"], summary["surrogate_std"], summary["min_effect"]) == (600, 0.1, 0.1)
@@ -220,6 +221,8 @@ def test_the_summary_names_the_cause_an_id_stands_for():
     assert diagnosis.summary_dict(result)["proxies"] == {
         "coil": {"accounted_by": ["the model inputs", "rm_mpa"], "share": 0.8}
     }
+    result.by_chance = {"thickness": ("coil", 18, 0.065)}
+    assert diagnosis.summary_dict(result)["by_chance"] == {"thickness": {"id": "coil", "levels": 18, "p_value": 0.065}}
 
 
 def test_between_level_sums_of_squares_by_hand():

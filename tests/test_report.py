@@ -53,6 +53,7 @@ def _summary(offset, selected=True):
         "aliases": {"die_temp_c": []},
         "explained_by": {},
         "proxies": {"coil_id": {"accounted_by": ["the model inputs", "die_temp_c"], "share": 0.81}},
+        "by_chance": {"thickness_mm": {"id": "coil_id", "levels": 18, "p_value": 0.065}},
     }
 
 
@@ -67,6 +68,7 @@ def test_names_the_cause_the_table_ranks_first_and_the_id_it_stands_for():
     says(text, "1,234 in-support", "## Causes", "1. **`die_temp_c`**", "sigmoid", "saturating", "62.0%")
     says(text, "`runs/p4/figures/cause_1.png`")  # the run's own results folder
     says(text, "`coil_id`", "an id, not a cause", "the model inputs", "surrogate's own error", "`die_temp_c`", "81%")
+    says(text, "`thickness_mm` is constant within each level of `coil_id`", "18 levels", "p = 0.065")
 
 
 def test_out_of_support_gain_in_words():

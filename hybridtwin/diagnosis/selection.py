@@ -53,6 +53,8 @@ class Diagnosis:
     explained_by: dict[str, str] = field(default_factory=dict)
     proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
     too_small: list[Fit] = field(default_factory=list)  # found by the test but within the surrogate's uncertainty
+    # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
+    by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
 
     @property
     def terms(self) -> tuple[Term, ...]:
@@ -340,4 +342,5 @@ def diagnose(
         explained_by,
         selection.proxies,
         too_small(found, rules),
+        {name: why for name, why in selection.by_chance.items() if name not in selection.names},
     )

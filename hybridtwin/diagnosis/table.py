@@ -173,6 +173,11 @@ def summary_dict(result: Diagnosis) -> dict:
         "proxies": {
             name: {"accounted_by": list(names), "share": share} for name, (names, share) in result.proxies.items()
         },
+        # columns an id holds whose form fitted its level means no better than chance: the id went first
+        "by_chance": {
+            name: {"id": group, "levels": levels, "p_value": p_value}
+            for name, (group, levels, p_value) in result.by_chance.items()
+        },
         # found by the test, given the chosen causes, but within the surrogate's own uncertainty (best first)
         "too_small": [
             {

@@ -164,6 +164,13 @@ def _not_separated(summary: dict) -> list[str]:
             "between its levels, fitted on its other levels, and what is left of them is too small to tell from "
             "the surrogate's own error."
         )
+    for column, held in summary.get("by_chance", {}).items():
+        notes.append(
+            f"- {code(column)} is constant within each level of {code(held['id'])}: its form fits the offsets of the "
+            f"{held['levels']} levels no better than the columns {code(held['id'])} holds fit them shuffled "
+            f"(p = {held['p_value']:.2g}), so {code(held['id'])} is named. Levels of known, varied {code(column)} "
+            "would tell them apart."
+        )
     for other, cause in summary["explained_by"].items():
         notes.append(
             f"- {code(other)} looks related on its own but adds nothing once {code(cause)} is in (a correlated "
