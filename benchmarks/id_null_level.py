@@ -39,21 +39,28 @@ def null_plant(n_coils: int, seed: int) -> tuple[pd.DataFrame, np.ndarray]:
     return frame, rng.normal(0, 1.0, n_coils)[coil] + rng.normal(0, NOISE, len(coil))
 
 
-def coil_named(frame: pd.DataFrame, y: np.ndarray, seed: int) -> bool:
+def named(frame: pd.DataFrame, y: np.ndarray, seed: int) -> set[str]:
+    """The causes the diagnosis names on a null plant (each a false discovery)."""
     settings = diagnosis.Settings(seed=seed, interactions=False)
     result = diagnosis.diagnose(frame, y, ["rm_mpa", "cushion_kn"], [], settings, surrogate_std=1.0)
-    return any(fit.candidate.name == "coil" for fit in result.selected)
+    return {fit.candidate.name for fit in result.selected}
 
 
 def rates(draws: int) -> pd.DataFrame:
     rows = []
     for n_coils in LEVELS:
         plants = [null_plant(n_coils, seed) for seed in range(draws)]
-        spread = [coil_named(frame, y, seed) for seed, (frame, y) in enumerate(plants)]
+        spread = [named(frame, y, seed) for seed, (frame, y) in enumerate(plants)]
         with mock.patch.object(ids, "surrogate_spread", lambda error_std, n_levels, alpha: 0.0):
-            margin = [coil_named(frame, y, seed) for seed, (frame, y) in enumerate(plants)]
+            margin = [named(frame, y, seed) for seed, (frame, y) in enumerate(plants)]
         rows.append(
-            dict(coils=n_coils, draws=draws, named_spread_rule=np.mean(spread), named_margin_alone=np.mean(margin))
+            dict(
+                coils=n_coils,
+                draws=draws,
+                named_spread_rule=np.mean(["coil" in names for names in spread]),
+                anything_spread_rule=np.mean([bool(names) for names in spread]),
+                named_margin_alone=np.mean(["coil" in names for names in margin]),
+            )
         )
     return pd.DataFrame(rows)
 
@@ -69,12 +76,14 @@ def main() -> None:
         "",
         f"Constructed nulls: each coil's offset one draw of the surrogate's error (std 1, as told to the diagnosis), "
         f"noise {NOISE}, {PARTS_PER_COIL} parts per coil, a per-coil material input and a setting; alpha "
-        f"{diagnosis.Settings().alpha}. Share of plants where the coil id is named (a false discovery):",
+        f"{diagnosis.Settings().alpha}. Share of plants where the coil id is named, and where anything is (each a "
+        "false discovery):",
         "",
-        "| coils | plants | spread rule (today) | margin alone (before) |",
-        "|---:|---:|---:|---:|",
+        "| coils | plants | coil named: spread rule (today) | anything named: spread rule | coil named: margin alone |",
+        "|---:|---:|---:|---:|---:|",
         *(
-            f"| {r.coils} | {r.draws} | {r.named_spread_rule:.1%} | {r.named_margin_alone:.1%} |"
+            f"| {r.coils} | {r.draws} | {r.named_spread_rule:.1%} | {r.anything_spread_rule:.1%} | "
+            f"{r.named_margin_alone:.1%} |"
             for r in table.itertuples()
         ),
     ]
