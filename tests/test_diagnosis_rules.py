@@ -708,3 +708,15 @@ def test_a_true_per_coil_effect_fits_the_level_means_beyond_chance_and_is_named(
     frame, y = _per_coil_plant(5, true_effect=True)
     result = _diagnose(frame, y, surrogate_std=0.3, inputs=("thickness", "strength", "die_temp"))
     assert [f.candidate.name for f in result.selected][:1] == ["thickness"]
+
+
+def test_a_saturation_of_the_diagnosis_widths_at_an_inner_decile_fits_the_level_means_whole():
+    x = np.linspace(0.0, 10.0, 21)
+    means = 1.0 / (1.0 + np.exp(-(x - np.quantile(x, 0.5)) / (0.08 * 10.0)))
+    weights = np.full(21, 30.0)
+    assert ids.level_fit_shares(x[None, :], means, weights)[0] == pytest.approx(1.0)
+    # neither a line, a parabola nor a step fits it whole
+    xx, yy = np.repeat(x, 30), np.repeat(means, 30)
+    for name in ("linear", "quadratic", "step"):
+        fitted = forms.fit_form(name, xx, yy).predict(xx)
+        assert 1 - np.sum((yy - fitted) ** 2) / np.sum((yy - yy.mean()) ** 2) < 0.99

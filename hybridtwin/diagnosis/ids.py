@@ -215,14 +215,13 @@ def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     weights = weights / weights.sum()
     means = means - np.sum(weights * means)
     z = (x - x.mean(axis=1, keepdims=True)) / (np.ptp(x, axis=1, keepdims=True) + 1e-300)
-    best = _weighted_r2(z, means, weights)
-    # quadratic: the linear share plus what the square's part orthogonal to the line adds
+    linear = _weighted_r2(z, means, weights)
+    # quadratic: the linear share plus the share of what the line leaves that the square's part off the line fits
     square = z**2 - np.sum(weights * z**2, axis=1, keepdims=True)
     zc = z - np.sum(weights * z, axis=1, keepdims=True)
     slope = np.sum(weights * square * zc, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
-    best = np.maximum(
-        best, best + _weighted_r2(square - slope * zc, means - _line(zc, means, weights), weights) * (1 - best)
-    )
+    left = means - _line(zc, means, weights)
+    best = linear + _weighted_r2(square - slope * zc, left, weights) * (1 - linear)
     # a step between consecutive levels in the order of x, at least two levels on each side
     order = np.argsort(x, axis=1, kind="stable")
     w_sorted, m_sorted = weights[order], means[order]
@@ -255,7 +254,7 @@ def level_chance_p(column: Candidate, group: Candidate, y, candidates: list[Cand
 
     A column constant within a coil has one value per coil: its evidence is as many points as there are coils,
     however many parts each coil has. Sixteen coils' random offsets were fitted by a step in a per-coil
-    anisotropy with 70% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.025 here
+    anisotropy with 69% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.025 here
     (structures draw 40086); a true per-coil effect leaves the level means on its form."""
     held = held_columns(group, candidates)
     if column.name not in {c.name for c in held}:
