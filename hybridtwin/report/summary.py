@@ -61,6 +61,11 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
     for proxy, named in diagnosis.get("proxies", {}).items():
         accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
+    for column, held in diagnosis.get("by_chance", {}).items():
+        lines.append(
+            f"  ``{column}`` is constant within each level of ``{held['id']}``: its form fits the offsets of the "
+            f"{held['levels']} levels no better than chance (p = {held['p_value']:.2g})."
+        )
     return lines + [""]
 
 
