@@ -148,7 +148,6 @@ def test_a_sweep_figure_per_rank_or_why_there_is_none(monkeypatch):
 def test_the_first_page_says_which_column_gave_way_to_an_id_by_chance():
     from hybridtwin.report.summary import _errors
 
-    summary = _summary(2.0)
-    text = "\n".join(_errors(summary, "draw-in", "mm"))
+    text = "\n".join(_errors(_summary(2.0, selected=False), "draw-in", "mm"))
     says(text, "``coil_id`` is an id, not a cause", "``thickness_mm`` is constant within each level of ``coil_id``")
     says(text, "18 levels no better than chance (p = 0.065)")
