@@ -639,13 +639,13 @@ def test_a_column_an_id_holds_is_judged_over_its_levels_against_the_columns_it_h
     rng, coil, candidates = _coils(16, 50, seed=3)
     group, thickness, strength, die_temp = candidates
     assert [c.name for c in ids.held_columns(group, candidates)] == ["thickness", "strength"]
-    assert ids.level_chance_p(die_temp, group, rng.normal(size=len(coil)), candidates, seed=0) is None
+    assert ids.level_chance_p(die_temp, group, rng.normal(size=len(coil)), candidates, seed=0, alpha=0.01) is None
     # a true per-coil effect: the level means lie on its form
     true = 3 * (thickness.values - 0.7) / 0.02 + rng.normal(0, 0.3, len(coil))
-    assert ids.level_chance_p(thickness, group, true, candidates, seed=0) == pytest.approx(1 / 200)
+    assert ids.level_chance_p(thickness, group, true, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
     # random coil offsets: over many plants the column fits them beyond chance at the level's rate only
     p_values = [
-        ids.level_chance_p(thickness, group, np.random.default_rng(s).normal(size=16)[coil], candidates, seed=s)
+        ids.level_chance_p(thickness, group, np.random.default_rng(s).normal(size=16)[coil], candidates, s, 0.01)
         for s in range(40)
     ]
     assert np.mean(np.array(p_values) < 0.05) <= 0.1
@@ -720,3 +720,31 @@ def test_a_saturation_of_the_diagnosis_widths_at_an_inner_decile_fits_the_level_
     for name in ("linear", "quadratic", "step"):
         fitted = forms.fit_form(name, xx, yy).predict(xx)
         assert 1 - np.sum((yy - fitted) ** 2) / np.sum((yy - yy.mean()) ** 2) < 0.99
+
+
+def test_the_level_shares_of_many_orderings_at_once_are_those_of_each_alone():
+    rng = np.random.default_rng(1)
+    x, means, weights = rng.normal(size=9), rng.normal(size=9), rng.integers(5, 60, 9).astype(float)
+    orders = np.array([rng.permutation(9) for _ in range(50)])
+    together = ids.level_fit_shares(x[orders], means, weights)
+    alone = [ids.level_fit_shares(x[order][None, :], means, weights)[0] for order in orders]
+    np.testing.assert_allclose(together, alone, rtol=1e-12)
+
+
+def test_an_id_of_too_few_levels_for_any_ordering_to_reach_alpha_says_nothing():
+    assert ids.min_levels(0.01) == 6 and ids.min_levels(0.05) == 5
+    rng, coil, candidates = _coils(5, 40, seed=2)
+    group, thickness = candidates[0], candidates[1]
+    perfect = 3 * (thickness.values - 0.7) / 0.02
+    assert ids.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.01) is None
+    assert ids.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.05) is not None
+
+
+def test_a_column_is_judged_against_the_best_of_the_columns_the_id_holds():
+    # the offsets follow the strength: the thickness is judged on its own fit, not on the strength's
+    rng, coil, candidates = _coils(16, 50, seed=3)
+    group, thickness, strength = candidates[:3]
+    y = (strength.values - 300) / 20 + rng.normal(0, 0.2, len(coil))
+    p_strength = ids.level_chance_p(strength, group, y, candidates, seed=0, alpha=0.01)
+    p_thickness = ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01)
+    assert p_strength == pytest.approx(1 / 200) and p_thickness > 0.02  # 0.035: not at alpha 0.01

@@ -18,6 +18,7 @@ benchmarks/surrogate_null_calibration.py), so the null is taken from the data in
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +39,6 @@ LEVEL_PENALTIES = np.logspace(-3, 8, 12)
 MAX_SMOOTH = 3  # smooth candidates that may account for an id's offsets together with the input surface
 PASSES = 3  # backfitting passes of the surface and the smooth candidates
 LEVEL_HELD = 0.95  # a column with this share of its variance between an id's levels is held by the id
-LEVEL_FORMS = ("linear", "quadratic", "step", "sigmoid")  # the closed forms a held column's level means are fitted with
 LEVEL_SHUFFLES = 199  # shuffles of the level means among the held columns' values (p >= 0.005)
 
 
@@ -204,7 +204,7 @@ def _weighted_r2(basis: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     (..., levels): the squared weighted correlation."""
     b = basis - np.sum(basis * weights, axis=-1, keepdims=True)
     covariance = np.sum(weights * b * means, axis=-1)
-    spread = np.sum(weights * b * b, axis=-1) * np.sum(weights * means * means)
+    spread = np.sum(weights * b * b, axis=-1) * np.sum(weights * means * means, axis=-1)  # per row of ``means`` too
     return np.divide(covariance**2, spread, out=np.zeros_like(covariance), where=spread > 0)
 
 
@@ -247,19 +247,28 @@ def _line(zc: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return slope * zc
 
 
-def level_chance_p(column: Candidate, group: Candidate, y, candidates: list[Candidate], seed: int) -> float | None:
+def min_levels(alpha: float) -> int:
+    """The fewest levels whose orderings can give a permutation p below ``alpha``: a form fits an ordering and its
+    reverse alike, so L levels give L!/2 distinct fits (six levels at alpha 1%)."""
+    return next(n for n in range(2, 20) if math.factorial(n) / 2 * alpha > 1)
+
+
+def level_chance_p(
+    column: Candidate, group: Candidate, y, candidates: list[Candidate], seed: int, alpha: float
+) -> float | None:
     """How often the level means of ``y`` over ``group``'s levels, shuffled among the levels, are fitted by a
     closed form of some column the id holds at least as well as ``column`` fits them unshuffled (a max-statistic
-    permutation p-value over the held columns); None where the id does not hold ``column``.
+    permutation p-value over the held columns); None where the id does not hold ``column``, or has too few levels
+    for any ordering to reach ``alpha`` (:func:`min_levels`: nothing to tell).
 
     A column constant within a coil has one value per coil: its evidence is as many points as there are coils,
     however many parts each coil has. Sixteen coils' random offsets were fitted by a step in a per-coil
     anisotropy with 69% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.025 here
     (structures draw 40086); a true per-coil effect leaves the level means on its form."""
     held = held_columns(group, candidates)
-    if column.name not in {c.name for c in held}:
-        return None
     codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
+    if column.name not in {c.name for c in held} or len(counts) < min_levels(alpha):
+        return None
     means = np.bincount(codes, weights=np.asarray(y, float)) / counts
     level_values = {c.name: np.bincount(codes, weights=np.asarray(c.values, float)) / counts for c in held}
     observed = level_fit_shares(level_values[column.name][None, :], means, counts.astype(float))[0]

@@ -118,10 +118,11 @@ class Selection:
     def _by_chance(self, column: Fit, named_id: Fit) -> bool:
         """Whether ``column`` is one the id holds (constant within its levels) and fits the id's level means no
         better than the columns it holds fit them shuffled (:func:`~hybridtwin.diagnosis.ids.level_chance_p`)."""
+        settings = self.rules.settings
         p_value = level_chance_p(
-            column.candidate, named_id.candidate, self.remaining, self.candidates, self.rules.settings.seed
+            column.candidate, named_id.candidate, self.remaining, self.candidates, settings.seed, settings.alpha
         )
-        if p_value is None or p_value < self.rules.settings.alpha:
+        if p_value is None or p_value < settings.alpha:
             return False
         levels = len(np.unique(np.asarray(named_id.candidate.values).astype(str)))
         self.by_chance[column.candidate.name] = (named_id.candidate.name, levels, p_value)
@@ -261,15 +262,14 @@ class Selection:
 
 def smooth_first(best: Fit, named_id: Fit, accounted: float, by_chance=lambda: False) -> bool:
     """Whether a significant smooth cause goes before an id that stands: the smooth candidates account for
-    enough of the id's level differences, or the best is a column that explains most of what the id does.
-    Never where ``by_chance()`` says the best is a column the id holds that fits its level means no better than
-    chance (a per-coil property's step fitted to random coil offsets)."""
-    if by_chance():
-        return False
-    if accounted >= ID_ACCOUNTED_SMOOTH_FIRST:
-        return True
+    enough of the id's level differences, or the best is a column that explains most of what the id does;
+    never where ``by_chance()`` (asked only then) says the best is a column the id holds that fits its level means
+    no better than chance (a per-coil property's step fitted to random coil offsets)."""
     column = best.candidate.kind != "interaction"
-    return column and best.explained_share >= SMOOTH_SHARE_OF_ID * named_id.explained_share
+    first = accounted >= ID_ACCOUNTED_SMOOTH_FIRST or (
+        column and best.explained_share >= SMOOTH_SHARE_OF_ID * named_id.explained_share
+    )
+    return first and not by_chance()
 
 
 def joint_share(fits: list[Fit], y, settings: Settings) -> float:
@@ -316,6 +316,12 @@ def diagnose(
         selection.choose_again_after_the_first()
     selection.drop_products_an_id_holds()
     aliases, explained_by = confounding(selection.chosen, selection.marginal, y, rules)
+    # what gave way to an id that is still named (the causes after the first may have been chosen again)
+    by_chance = {
+        name: why
+        for name, why in selection.by_chance.items()
+        if name not in selection.names and why[0] in selection.names
+    }
     found = Found(
         selection.marginal,
         selection.conditional,
@@ -323,7 +329,7 @@ def diagnose(
         aliases,
         explained_by,
         selection.proxies,
-        selection.by_chance,
+        by_chance,
     )
     table = causes_table(found, skipped, rules)
     return Diagnosis(
@@ -342,5 +348,5 @@ def diagnose(
         explained_by,
         selection.proxies,
         too_small(found, rules),
-        {name: why for name, why in selection.by_chance.items() if name not in selection.names},
+        by_chance,
     )
