@@ -263,7 +263,7 @@ def level_chance_p(
 
     A column constant within a coil has one value per coil: its evidence is as many points as there are coils,
     however many parts each coil has. Sixteen coils' random offsets were fitted by a step in a per-coil
-    anisotropy with 69% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.025 here
+    anisotropy with 69% of their weighted variance, at p = 2e-17 over blocks of parts and p = 0.03 here
     (structures draw 40086); a true per-coil effect leaves the level means on its form."""
     held = held_columns(group, candidates)
     codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
