@@ -701,7 +701,7 @@ def test_coil_offsets_a_per_coil_column_fits_by_chance_name_the_coil_and_say_why
     result = _diagnose(frame, y, surrogate_std=0.3, inputs=("thickness", "strength", "die_temp"))
     assert [f.candidate.name for f in result.selected] == ["coil"]  # without the level test: thickness, coil
     note = result.table.set_index("cause").loc["thickness", "note"]
-    assert note.startswith("constant within each level of coil: its form fits the offsets of the 14 levels")
+    assert note.startswith("thickness is constant within each level of coil: its form fits the offsets of the 14")
 
 
 def test_a_true_per_coil_effect_fits_the_level_means_beyond_chance_and_is_named():

@@ -11,7 +11,7 @@ import pandas as pd
 
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.fits import Rules, is_significant
-from hybridtwin.diagnosis.wording import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis
@@ -123,10 +123,7 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
         )
     if name in found.by_chance and name not in chosen:
         group, levels, p_value = found.by_chance[name]
-        return (
-            f"constant within each level of {group}: its form fits the offsets of the {levels} levels no better "
-            f"than the columns {group} holds fit them shuffled (p = {p_value:.2g}); {group} goes first"
-        )
+        return by_chance_words(name, group, levels, p_value) + f"; {group} goes first"
     if found.aliases.get(name):
         return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
     if alias_of:

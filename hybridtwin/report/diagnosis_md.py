@@ -7,7 +7,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
 # the report's words for the gain table's columns
@@ -166,10 +166,8 @@ def _not_separated(summary: dict) -> list[str]:
         )
     for column, held in summary.get("by_chance", {}).items():
         notes.append(
-            f"- {code(column)} is constant within each level of {code(held['id'])}: its form fits the offsets of the "
-            f"{held['levels']} levels no better than the columns {code(held['id'])} holds fit them shuffled "
-            f"(p = {held['p_value']:.2g}), so {code(held['id'])} is named. Levels of known, varied {code(column)} "
-            "would tell them apart."
+            f"- {by_chance_words(column, held['id'], held['levels'], held['p_value'], code)}, so "
+            f"{code(held['id'])} is named. Levels of known, varied {code(column)} would tell them apart."
         )
     for other, cause in summary["explained_by"].items():
         notes.append(

@@ -12,7 +12,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
 from hybridtwin.models import registry
 
 REGION_WORDS = {"in_support": "in the validated domain (in support)"}
@@ -62,10 +62,8 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
         accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
     for column, held in diagnosis.get("by_chance", {}).items():
-        lines.append(
-            f"  ``{column}`` is constant within each level of ``{held['id']}``: its form fits the offsets of the "
-            f"{held['levels']} levels no better than chance (p = {held['p_value']:.2g})."
-        )
+        words = by_chance_words(column, held["id"], held["levels"], held["p_value"], lambda name: f"``{name}``")
+        lines.append(f"  {words}.")
     return lines + [""]
 
 
