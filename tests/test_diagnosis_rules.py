@@ -661,14 +661,38 @@ def test_the_level_shares_are_the_closed_forms_fitted_to_the_weighted_level_mean
         for name in ("linear", "quadratic")
     ]
     assert ids.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(shares) - 1e-9
-    # a step between the levels, by exhaustive search over the splits with two levels on each side
-    order = np.argsort(x)
-    steps = []
-    for k in range(2, 11):
-        below = np.repeat(np.isin(np.arange(12), order[:k]), counts)
-        fitted = np.where(below, yy[below].mean(), yy[~below].mean())
-        steps.append(1 - np.sum((yy - fitted) ** 2) / np.sum((yy - yy.mean()) ** 2))
-    assert ids.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(steps) - 1e-9
+
+
+def _exhaustive_step(x, means, counts) -> float:
+    """The best step's share of the part-weighted variance, over every split between two distinct values with two
+    levels or more on each side."""
+    yy, best = np.repeat(means, counts), 0.0
+    for cut in np.unique(x):
+        below = x <= cut
+        if below.sum() >= 2 and (~below).sum() >= 2:
+            fitted = np.where(
+                np.repeat(below, counts), yy[np.repeat(below, counts)].mean(), yy[~np.repeat(below, counts)].mean()
+            )
+            best = max(best, 1 - np.sum((yy - fitted) ** 2) / np.sum((yy - yy.mean()) ** 2))
+    return best
+
+
+def test_the_step_share_is_the_best_split_between_distinct_values():
+    rng = np.random.default_rng(4)
+    counts = rng.integers(5, 50, 12)
+    weights = counts / counts.sum()
+    for x in (
+        rng.normal(size=12),
+        np.repeat([1.0, 2.0, 3.0, 4.0], 3),
+    ):  # distinct values; ties (a setting per campaign)
+        means = rng.normal(size=12)
+        means = means - np.sum(weights * means)
+        assert ids.step_shares(x[None, :], means, weights)[0] == pytest.approx(_exhaustive_step(x, means, counts))
+    # levels that share a value are not split: the offsets change inside the second value's levels
+    x, means = np.repeat([1.0, 2.0, 3.0, 4.0], 3), np.array([-1.0] * 4 + [3.0] * 8)
+    means = means - np.sum(weights * means)
+    shared = ids.step_shares(x[None, :], means, weights)[0]
+    assert shared == pytest.approx(_exhaustive_step(x, means, counts)) and shared < 0.95
 
 
 def test_a_column_that_fits_an_ids_level_means_by_chance_does_not_go_before_it():

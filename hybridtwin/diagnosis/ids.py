@@ -217,21 +217,11 @@ def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     z = (x - x.mean(axis=1, keepdims=True)) / (np.ptp(x, axis=1, keepdims=True) + 1e-300)
     linear = _weighted_r2(z, means, weights)
     # quadratic: the linear share plus the share of what the line leaves that the square's part off the line fits
-    square = z**2 - np.sum(weights * z**2, axis=1, keepdims=True)
     zc = z - np.sum(weights * z, axis=1, keepdims=True)
-    slope = np.sum(weights * square * zc, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
-    left = means - _line(zc, means, weights)
-    best = linear + _weighted_r2(square - slope * zc, left, weights) * (1 - linear)
-    # a step between consecutive levels in the order of x, at least two levels on each side
-    order = np.argsort(x, axis=1, kind="stable")
-    w_sorted, m_sorted = weights[order], means[order]
-    below_w, below_m = np.cumsum(w_sorted, axis=1)[:, 1:-2], np.cumsum(w_sorted * m_sorted, axis=1)[:, 1:-2]
-    total = np.sum(weights * means * means)
-    x_sorted = np.take_along_axis(x, order, axis=1)
-    changes = (x_sorted[:, 2:-1] > x_sorted[:, 1:-2]) & (below_w < 1)  # a step lies between two values
-    if below_w.shape[1] and total > 0:
-        between = below_m**2 / below_w + below_m**2 / np.where(below_w < 1, 1 - below_w, 1.0)  # the means sum to 0
-        best = np.maximum(best, np.max(np.where(changes, between, 0.0), axis=1) / total)
+    square = z**2 - np.sum(weights * z**2, axis=1, keepdims=True)
+    off_line = square - _line(zc, square, weights)
+    best = linear + _weighted_r2(off_line, means - _line(zc, means, weights), weights) * (1 - linear)
+    best = np.maximum(best, step_shares(x, means, weights))
     # a saturation: logistic bases at the inner deciles of the values, of the diagnosis' widths
     thresholds = np.quantile(x[0], np.linspace(0.1, 0.9, 9))
     span = np.ptp(x[0]) or 1.0
@@ -241,9 +231,24 @@ def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     return best
 
 
-def _line(zc: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """The weighted least-squares line of ``means`` on the centred ``zc``, per row."""
-    slope = np.sum(weights * zc * means, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
+def step_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Per row of ``x``: the share of the weighted variance of the level ``means`` (weights summing to 1, means to 0)
+    that the best step fits, between two distinct values of x with at least two levels on each side (0 if none)."""
+    order = np.argsort(x, axis=1, kind="stable")
+    w_sorted, m_sorted = weights[order], means[order]
+    below_w, below_m = np.cumsum(w_sorted, axis=1)[:, 1:-2], np.cumsum(w_sorted * m_sorted, axis=1)[:, 1:-2]
+    total = np.sum(weights * means * means)
+    if not below_w.shape[1] or total <= 0:
+        return np.zeros(len(x))
+    x_sorted = np.take_along_axis(x, order, axis=1)
+    changes = (x_sorted[:, 2:-1] > x_sorted[:, 1:-2]) & (below_w < 1)  # a step lies between two values
+    between = below_m**2 / below_w + below_m**2 / np.where(below_w < 1, 1 - below_w, 1.0)  # the means sum to 0
+    return np.max(np.where(changes, between, 0.0), axis=1) / total
+
+
+def _line(zc: np.ndarray, values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted least-squares line of ``values`` on the centred ``zc``, per row."""
+    slope = np.sum(weights * zc * values, axis=1, keepdims=True) / np.sum(weights * zc * zc, axis=1, keepdims=True)
     return slope * zc
 
 
