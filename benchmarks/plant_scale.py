@@ -72,15 +72,14 @@ def main() -> None:
     start = time.perf_counter()
     made = subprocess.run([*command[:1], *config["data"].values(), *command[1:]])  # targets before --configfile
     made_seconds = time.perf_counter() - start
-    start = time.perf_counter()
     if made.returncode == 0:
         clear_results(Path(results), keep=Path(config["data"]["doe"]).parent.name)
         start = time.perf_counter()
         run = subprocess.Popen(command)
         peak, at_peak = peak_memory_of(run)
+        seconds = time.perf_counter() - start
     else:
-        run, peak, at_peak = made, 0, []
-    seconds = time.perf_counter() - start
+        run, peak, at_peak, seconds = made, 0, [], 0.0
     print(
         f"\n{args.rows:,} production rows, {args.cores} cores: the workflow on the plant's files in {seconds:.0f} s "
         f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once (rule scripts then "
