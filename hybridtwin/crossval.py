@@ -42,10 +42,26 @@ def period_folds(n_rows: int, n_folds: int) -> list[tuple[np.ndarray, np.ndarray
     A row's out-of-fold prediction then comes from a model that never saw its period: its campaign, its coil,
     its hour; the error of a period the model has not seen is the error the next production period meets.
     """
+    period = periods(n_rows, n_folds)
+    return [(np.flatnonzero(period != k), np.flatnonzero(period == k)) for k in range(n_folds)]
+
+
+def periods(n_rows: int, n_folds: int) -> np.ndarray:
+    """Each row's period (0..K-1) among ``n_rows`` in time order: the test folds of :func:`period_folds`."""
     if n_rows < n_folds:
         raise ValueError(f"{n_rows} rows are fewer than the {n_folds} CV folds")
-    period = np.arange(n_rows) * n_folds // n_rows
-    return [(np.flatnonzero(period != k), np.flatnonzero(period == k)) for k in range(n_folds)]
+    return np.arange(n_rows) * n_folds // n_rows
+
+
+def out_of_period(refit_without, X: np.ndarray, period: np.ndarray, training_period: np.ndarray) -> np.ndarray:
+    """Each row of ``X`` predicted by a model that never saw its period: ``refit_without(keep)`` is the model
+    refitted (its hyperparameters held) on the training rows where ``keep``, as a function of rows;
+    ``period``: each row's period, ``training_period``: each training row's."""
+    out = np.empty(len(X))
+    for k in np.unique(period):
+        rows = period == k
+        out[rows] = refit_without(training_period != k)(X[rows])
+    return out
 
 
 def ids_of(splits, n_rows: int) -> np.ndarray:

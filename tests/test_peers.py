@@ -161,9 +161,9 @@ def test_cokriging_keeps_the_search_whose_model_predicts_unseen_periods_best(cas
             refit = model._refit(model.data_["X_high"][train], y[train], hyperparameters)
             held_out[test] = refit.predict_values(model.standardizer_.transform(model.data_["X_high"][test])).ravel()
         assert error == pytest.approx(_rmse(held_out, y), rel=1e-6)
-        if hyperparameters == model.hyperparameters_:  # the chosen search's are its out-of-fold values there
-            assert np.allclose(model.out_of_fold(5), held_out)
-    assert np.allclose(model.out_of_fold(4), model._period_predictions(4))  # other periods: refitted
+        if hyperparameters == model.hyperparameters_:  # the chosen search's are its out-of-period values there
+            period = crossval.periods(len(y), 5)
+            assert np.allclose(model.out_of_period(case["parts"].iloc[model.training_rows_], period, period), held_out)
     # each search drew its own parts of the same rows; the chosen draw is kept
     assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     single = CoKriging(n_high=60, n_fit=300, n_start=1, n_searches=1).fit(
@@ -182,8 +182,8 @@ def test_gp_discrepancy_keeps_the_draw_whose_gp_predicts_unseen_periods_best(cas
     state = model.gp_.to_dict()
     held_out = model._period_predictions(state, 5)
     assert _rmse(held_out, y) == pytest.approx(min(model.draw_errors_), rel=1e-9)  # the best draw is kept
-    assert np.allclose(model.out_of_fold(5), held_out)  # its out-of-period values are its out-of-fold ones
-    assert np.allclose(model.out_of_fold(4), model._period_predictions(state, 4))  # other periods: refitted
+    period = crossval.periods(len(y), 5)  # its training parts predicted out of period
+    assert np.allclose(model.out_of_period(case["parts"].iloc[model.training_rows_], period, period), held_out)
     assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     single = GPDiscrepancy(n_hyper=60, n_fit=300, n_draws=1).fit(case["parts"], residual)
     seeded = [model.training_rows_[crossval.training_subset(300, 60, seed)] for seed in (0, 101, 102)]
@@ -194,7 +194,7 @@ def test_gp_discrepancy_keeps_the_draw_whose_gp_predicts_unseen_periods_best(cas
     stored = json.loads((Path(__file__).parent / "data" / "models" / "peer_gp_discrepancy.json").read_text())
     assert "n_draws" not in stored["params"] and GPDiscrepancy.from_dict(stored).get_params()["n_draws"] == 1
     every = GPDiscrepancy(n_hyper=60, n_fit=60, n_draws=3).fit(case["parts"], residual)  # every row in each draw
-    assert every.draw_errors_ == [0.0] and not every.period_predictions_  # one search: the draws would be alike
+    assert every.draw_errors_ == [0.0]  # one search: the draws would be alike
 
 
 def test_a_model_without_an_honest_value_on_a_row_is_not_scored_there():
@@ -228,7 +228,7 @@ def _peer_frames(case, in_support):
     return case["doe"].assign(y=case["y_doe"]), residuals
 
 
-def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training_parts_out_of_fold(case):
+def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training_parts_out_of_period(case):
     parts = case["parts"]
     doe, residuals = _peer_frames(case, np.arange(len(parts)) % 2 == 0)
     settings = {"gp_n_hyper": 100, "gp_n_fit": 200, "max_predicted": 1000}
@@ -238,10 +238,12 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     again = peers.fit_peer("gp_discrepancy", doe, parts, residuals, COLUMNS, "y", settings, seed=0, n_folds=5)
     assert np.array_equal(np.isfinite(again.production["pred_gp_discrepancy"]), predicted)  # seeded
     honest = fit.production["pred_gp_discrepancy_oof"].to_numpy()
-    trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
+    inside = residuals["in_support"].to_numpy(bool)
+    trained = np.flatnonzero(inside)[fit.model.training_rows_]
     assert np.array_equal(np.flatnonzero(np.isfinite(honest)), np.union1d(np.flatnonzero(predicted), trained))
-    elsewhere = predicted & ~np.isin(np.arange(len(parts)), trained)
-    assert np.array_equal(honest[elsewhere], fit.production["pred_gp_discrepancy"].to_numpy()[elsewhere])
+    final = fit.production["pred_gp_discrepancy"].to_numpy()
+    assert np.array_equal(honest[predicted & ~inside], final[predicted & ~inside])  # never trained there
+    assert not np.allclose(honest[predicted & inside], final[predicted & inside])  # out of period in support
     # without a limit every row is predicted, and the sample's values are the same
     full = peers.fit_peer(
         "gp_discrepancy", doe, parts, residuals, COLUMNS, "y", {**settings, "max_predicted": 10**6}, 0, 5
@@ -250,40 +252,51 @@ def test_on_a_large_log_a_peer_predicts_a_seeded_sample_of_rows_and_its_training
     np.testing.assert_allclose(
         full.production["pred_gp_discrepancy"].to_numpy()[predicted], fit.production["pred_gp_discrepancy"][predicted]
     )
+    np.testing.assert_allclose(full.production["pred_gp_discrepancy_oof"].to_numpy()[predicted], honest[predicted])
 
 
 @pytest.mark.parametrize("kind", registry.PEER_NAMES)
-def test_on_its_training_parts_a_peer_is_scored_by_models_fitted_without_them(case, kind):
+def test_in_support_a_peer_is_scored_by_models_that_never_saw_the_part_s_period(case, kind):
+    """Every in-support part, trained on or not, is predicted by the peer refitted without the training parts of
+    its period (as the hybrid is scored): the final model has seen its neighbours in time."""
     doe, residuals = _peer_frames(case, np.arange(len(case["parts"])) % 3 != 0)
     settings = {"gp_n_hyper": 60, "gp_n_fit": 150, "cokriging_n_high": 150, "cokriging_n_start": 2}
     fit = peers.fit_peer(kind, doe, case["parts"], residuals, COLUMNS, "y", settings, seed=4, n_folds=3)
-    trained = np.flatnonzero(residuals["in_support"])[fit.model.training_rows_]
+    inside = np.flatnonzero(residuals["in_support"])
+    trained = inside[fit.model.training_rows_]
     honest = fit.production[f"pred_{kind}_oof"].to_numpy()
     final = fit.production[f"pred_{kind}"].to_numpy()
     assert len(trained) == 150 and fit.n_train == 150
-    untrained = np.setdiff1d(np.arange(len(final)), trained)
-    assert np.array_equal(honest[untrained], final[untrained])
-    # each fold by hand: the final model's hyperparameters on the other folds' rows only
+    outside = np.setdiff1d(np.arange(len(final)), inside)
+    assert np.array_equal(honest[outside], final[outside])  # never trained there: the final model
+    # each period by hand: the final model's hyperparameters on the other periods' training parts only
     model = fit.model
-    for train, test in crossval.period_folds(150, 3):  # out of period: three stretches of consecutive parts
-        rows = trained[test]
+    period = np.arange(len(inside)) * 3 // len(inside)  # three stretches of consecutive in-support parts
+    training_period = period[model.training_rows_]
+    for k in range(3):
+        rows, train = inside[period == k], np.flatnonzero(training_period != k)
+        assert len(rows) > np.sum(training_period == k)  # more than its training parts
         if isinstance(model, GPDiscrepancy):
             gp = model.gp_.gpr_
             by_hand = GaussianProcessRegressor(gp.kernel_, normalize_y=True, optimizer=None)
             by_hand.fit(gp.X_train_[train], residuals["residual_approx"].to_numpy()[trained[train]])
-            expected = simulator(case["parts"].to_numpy()[rows]) + by_hand.predict(gp.X_train_[test])
+            Z = model.gp_.standardizer_.transform(case["parts"].iloc[rows])
+            expected = simulator(case["parts"].to_numpy()[rows]) + by_hand.predict(Z)
         else:
             state = {key: value for key, value in model.to_dict().items() if key != "state"}  # refitted on load
             high = {key: model.data_[key][train] for key in ("X_high", "y_high")}
             state["data"] = {**state["data"], **high}
             expected = CoKriging.from_dict(state).predict(case["parts"].iloc[rows])
         np.testing.assert_allclose(honest[rows], expected, rtol=1e-9, atol=1e-9)
-        assert not np.allclose(honest[rows], final[rows])  # the final model, which saw them, differs
-    if isinstance(model, GPDiscrepancy):  # the rows that chose the hyperparameters are training rows, out-of-fold
+        assert not np.allclose(honest[rows], final[rows])  # the final model, which saw their period, differs
+    if isinstance(model, GPDiscrepancy):  # the rows that chose the hyperparameters are training rows
         assert np.isin(model.hyper_rows_, model.training_rows_).all() and len(model.hyper_rows_) == 60
     again = type(model).from_dict(model.to_dict())
     assert np.array_equal(again.training_rows_, model.training_rows_)
-    np.testing.assert_array_equal(again.out_of_fold(3), model.out_of_fold(3))
+    X = case["parts"].iloc[inside]
+    np.testing.assert_array_equal(
+        again.out_of_period(X, period, training_period), model.out_of_period(X, period, training_period)
+    )
 
 
 def test_threads_share_the_rows_and_give_the_same_answers(case):
@@ -341,7 +354,7 @@ def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():
     assert np.isnan(table.loc["hybrid", "n_train"])
     assert table["evaluated_on"].str.endswith("truth = the demo's noise-free plant").all()
     says(table["evaluated_on"].iloc[0], "test rows", "odd blocks", "even blocks", "the same rows for every model")
-    says(table["evaluated_on"].iloc[0], "fewer than half of a side's rows", "for a peer on the parts it trained on")
+    says(table["evaluated_on"].iloc[0], "fewer than half of a side's rows", "in support out of period for every model")
     says(table["evaluated_on"].iloc[0], "from models never trained there", "matched cases never used for fitting")
     assert "hybrid_unfiltered" not in table.index
     without = {m: p for m, p in predictions.items() if m != "cokriging"}

@@ -161,9 +161,9 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
     return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
-        "model that predicted a part saw its period), models never trained on the row outside it (a peer's out of "
-        "period on the parts it trained on too); rows beyond every calibrated part (trust: extrapolation) get no "
-        "interval and are not scored; coverage of the measured value, with its 95% Clopper-Pearson interval; "
+        "model that predicted a part saw its period), models never trained on the row outside it; rows beyond "
+        "every calibrated part (trust: extrapolation) get no interval and are not scored; coverage of the measured "
+        "value, with its 95% Clopper-Pearson interval; "
         "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended)"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"

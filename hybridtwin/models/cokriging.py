@@ -22,11 +22,13 @@ the time.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, period_folds, training_subset
+from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, out_of_period, periods, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import DoEStandardizer, input_matrix, input_names, remember_inputs, restore_inputs
 
@@ -212,8 +214,6 @@ class CoKriging(RegressorMixin, BaseEstimator):
         self.search_errors_, best = lowest_on_periods(held_out, self.data_["y_high"])
         self.searched_ = found
         self.hyperparameters_, self.hyper_rows_ = found[best], draws[best]
-        # the chosen search's out-of-period predictions, kept: out_of_fold on the same periods would refit them
-        self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
         final = self._refit()
         self.likelihood_ = float(final.optimal_rlf_value[-1])  # of the chosen hyperparameters on every part
         self.state_ = ar1_state(final)
@@ -235,21 +235,24 @@ class CoKriging(RegressorMixin, BaseEstimator):
         model = FixedMFK(self.hyperparameters_ if hyperparameters is None else hyperparameters, **self._options())
         return self._train(model, self.data_["X_low"], self.data_["y_low"], X_high, y_high)
 
-    def _period_predictions(self, n_folds: int, hyperparameters=None) -> np.ndarray:
-        X, y = self.data_["X_high"], self.data_["y_high"]
-        out = np.empty(len(y))
-        for train, test in period_folds(len(y), n_folds):
-            state = ar1_state(self._refit(X[train], y[train], hyperparameters))
-            out[test] = ar1_mean(state, self.standardizer_.transform(X[test]))
-        return out
+    def _without(self, keep: np.ndarray, hyperparameters=None):
+        """Co-kriging refitted on the fitted parts where ``keep`` (the simulations kept, the hyperparameters held),
+        as a function of rows of inputs."""
+        state = ar1_state(self._refit(self.data_["X_high"][keep], self.data_["y_high"][keep], hyperparameters))
+        return lambda X: ar1_mean(state, self.standardizer_.transform(X))
 
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        """Per high-fidelity row (in ``training_rows_`` order, which is time order): co-kriging, its
-        hyperparameters fixed, refitted without that row's period (``n_folds`` folds of consecutive rows; the
-        simulations kept)."""
+    def _period_predictions(self, n_folds: int, hyperparameters=None) -> np.ndarray:
+        """Each fitted part predicted without its period (``n_folds`` periods of consecutive parts)."""
+        period = periods(len(self.data_["y_high"]), n_folds)
+        return out_of_period(lambda keep: self._without(keep, hyperparameters), self.data_["X_high"], period, period)
+
+    def out_of_period(self, X, period, training_period) -> np.ndarray:
+        """Each row of ``X`` predicted by co-kriging refitted, its hyperparameters held, without the fitted parts
+        of the row's period: ``period`` per row of ``X``, ``training_period`` per fitted part (``training_rows_``)."""
         check_is_fitted(self, "state_")
-        kept = getattr(self, "period_predictions_", {}).get(n_folds)
-        return kept.copy() if kept is not None else self._period_predictions(n_folds)
+        return out_of_period(
+            lambda keep: partial(batched, self._without(keep)), input_matrix(self, X), period, training_period
+        )
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "state_")

@@ -11,11 +11,13 @@ its training rows and hyperparameters as JSON and is rebuilt from them exactly (
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, period_folds, training_subset
+from hybridtwin.crossval import SEARCH_FOLDS, lowest_on_periods, out_of_period, periods, training_subset
 from hybridtwin.models.batches import batched
 from hybridtwin.paper.gate import input_matrix, input_names, remember_inputs, restore_inputs
 from hybridtwin.paper.surrogate import GPRSurrogate
@@ -57,10 +59,6 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         held_out = [self._period_predictions(gp.to_dict(), SEARCH_FOLDS) for gp in found] if n_draws > 1 else []
         self.draw_errors_, best = lowest_on_periods(held_out, y[rows])
         self.gp_, self.hyper_rows_ = found[best], draws[best]
-        # the chosen draw's out-of-period predictions, kept: out_of_fold on the same periods would refit them. Its
-        # score on its own parts is then the best of n_draws and slightly optimistic (as co-kriging's); each draw's
-        # hyperparameter parts come from every period, so the periods are unseen by the refit, not by the search
-        self.period_predictions_ = {SEARCH_FOLDS: held_out[best]} if held_out else {}
         return self
 
     def _searched(self, matrix: np.ndarray, y: np.ndarray, draw: np.ndarray) -> GPRSurrogate:
@@ -71,19 +69,25 @@ class GPDiscrepancy(RegressorMixin, BaseEstimator):
         rows = self.training_rows_
         return self._with_rows(hyper.to_dict(), hyper.standardizer_.transform(matrix[rows]), y[rows])
 
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        """Per training row (in ``training_rows_`` order, which is time order): the GP, its hyperparameters
-        fixed, refitted without that row's period (``n_folds`` folds of consecutive training rows)."""
+    def out_of_period(self, X, period, training_period) -> np.ndarray:
+        """Each row of ``X`` predicted by the GP refitted, its hyperparameters held, without the training rows of
+        the row's period: ``period`` per row of ``X``, ``training_period`` per training row (``training_rows_``)."""
         check_is_fitted(self, "gp_")
-        kept = getattr(self, "period_predictions_", {}).get(n_folds)
-        return kept.copy() if kept is not None else self._period_predictions(self.gp_.to_dict(), n_folds)
+        Z = self.gp_.standardizer_.transform(input_matrix(self, X))
+        return out_of_period(partial(self._without, self.gp_.to_dict()), Z, period, training_period)
 
     def _period_predictions(self, state: dict, n_folds: int) -> np.ndarray:
+        """Each training row of the GP ``state`` predicted without its period (``n_folds`` periods of consecutive
+        training rows)."""
+        Z = np.asarray(state["X_train"], float)
+        period = periods(len(Z), n_folds)
+        return out_of_period(partial(self._without, state), Z, period, period)
+
+    def _without(self, state: dict, keep: np.ndarray):
+        """The GP of ``state``, its hyperparameters held, on its training rows where ``keep``, as a function of
+        standardized rows."""
         Z, y = np.asarray(state["X_train"], float), np.asarray(state["y_train"], float)
-        out = np.empty(len(y))
-        for train, test in period_folds(len(y), n_folds):
-            out[test] = batched(self._with_rows(state, Z[train], y[train]).gpr_.predict, Z[test])  # Z: standardized
-        return out
+        return partial(batched, self._with_rows(state, Z[keep], y[keep]).gpr_.predict)
 
     def predict(self, X) -> np.ndarray:
         check_is_fitted(self, "gp_")

@@ -1,8 +1,8 @@
 """The established alternatives to the paper's hybrid, fitted on the same information (DoE + in-support parts).
 
 Which peers there are, their classes and settings come from :mod:`hybridtwin.models.registry`. Each peer's
-class fits (``fit(X, y, X_low=, y_low=)``), scores its own training rows out-of-fold (``out_of_fold``:
-refitted without each fold, the hyperparameters held, as the XGBoost residual model keeps its tuned
+class fits (``fit(X, y, X_low=, y_low=)``), predicts parts out of period (``out_of_period``: refitted without
+each period's training parts, the hyperparameters held, as the XGBoost residual model keeps its tuned
 hyperparameters in its CV folds), predicts, and stores itself as JSON (``to_dict``/``from_dict``, no pickle).
 """
 
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.crossval import training_subset
+from hybridtwin.crossval import periods, training_subset
 from hybridtwin.io.files import in_support
 from hybridtwin.models import registry
 from hybridtwin.models.batches import chunks
@@ -49,7 +49,7 @@ def as_target(name: str, value: np.ndarray, surrogate: np.ndarray) -> np.ndarray
 @dataclass
 class PeerFit:
     model: object
-    # pred_<peer>: the final model; pred_<peer>_oof: the same, but out-of-fold on the parts it trained on
+    # pred_<peer>: the final model; pred_<peer>_oof: the same, but out of period on the in-support parts
     production: pd.DataFrame
     fit_seconds: float
     n_train: int
@@ -67,8 +67,9 @@ def fit_peer(
     n_folds: int,
 ) -> PeerFit:
     """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
-    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on the parts it trained on, out of
-    ``n_folds`` folds (the peer refitted without each fold, its hyperparameters fixed), as the hybrid is scored.
+    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on those rows in support and the parts
+    it trained on, out of period: ``n_folds`` periods of consecutive in-support parts, each predicted by the peer
+    refitted without its period's training parts (its hyperparameters held), as the hybrid is scored.
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
     residuals rule's table).
@@ -86,10 +87,19 @@ def fit_peer(
     predicted = training_subset(len(production), settings.get("max_predicted", len(production)), seed + 2)
     final = np.full(len(production), np.nan)
     final[predicted] = as_target(name, model.predict(production.iloc[predicted][inputs]), surrogate[predicted])
-    trained = inside[model.training_rows_]
+    # in support, out of period as the hybrid is scored: each part from the peer refitted without its period's
+    # training parts (the final model has seen its neighbours in time: its campaign, its coil)
+    period = periods(len(inside), n_folds)
+    scored = np.flatnonzero(np.isfinite(final[inside]) | np.isin(np.arange(len(inside)), model.training_rows_))
     honest = final.copy()
-    honest[trained] = as_target(name, model.out_of_fold(n_folds), surrogate[trained])
-    return PeerFit(model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(trained))
+    honest[inside[scored]] = as_target(
+        name,
+        model.out_of_period(production.iloc[inside[scored]][inputs], period[scored], period[model.training_rows_]),
+        surrogate[inside[scored]],
+    )
+    return PeerFit(
+        model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_)
+    )
 
 
 def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
@@ -164,9 +174,9 @@ def comparison_table(
     table["evaluated_on"] = (
         "production test rows (odd blocks of consecutive rows; the recommended model and the stack's weights were "
         "chosen on the even blocks), the same rows for every model (a model with values on fewer than half of a "
-        "side's rows, on its own among them: n_in_support, n_out_of_support): in support out of period for the "
-        "hybrid and the extension, and for a peer on the parts it trained on; out of support from models never "
-        "trained there; matched cases never used for fitting (the stack and the recommended model are not scored "
-        "on them)" + ("; truth = the demo's noise-free plant" if truth is not None else "")
+        "side's rows, on its own among them: n_in_support, n_out_of_support): in support out of period for every "
+        "model (K periods of consecutive parts, each from a model that never saw its period); out of support from "
+        "models never trained there; matched cases never used for fitting (the stack and the recommended model are "
+        "not scored on them)" + ("; truth = the demo's noise-free plant" if truth is not None else "")
     )
     return table

@@ -20,7 +20,7 @@ class Model:
 
     ``honest``: how its values are made that no part it is scored on was trained on;
     ``predicts``: ``target``, or ``residual`` (added to the surrogate's prediction);
-    ``estimator``: for a peer, ``module:Class`` of its estimator (fit, out_of_fold, predict,
+    ``estimator``: for a peer, ``module:Class`` of its estimator (fit, out_of_period, predict,
     to_dict/from_dict), and ``settings`` the (config key under ``peers``, constructor argument) pairs.
     """
 
@@ -91,7 +91,8 @@ GP_DISCREPANCY = Model(
     "gp_discrepancy",
     "GP discrepancy (Kennedy-O'Hagan)",
     "the DoE and a seeded sample of in-support parts",
-    "out-of-fold on the parts it trained on (hyperparameters held), the final model elsewhere",
+    "out of period on the in-support parts (refitted without each period's training parts, hyperparameters held), "
+    "the final model elsewhere",
     peer=True,
     predicts="residual",
     estimator="hybridtwin.models.gp_discrepancy:GPDiscrepancy",
@@ -101,7 +102,8 @@ COKRIGING = Model(
     "cokriging",
     "co-kriging (AR1, SMT's MFK)",
     "the DoE (low fidelity) and a seeded sample of in-support parts (high fidelity)",
-    "out-of-fold on the parts it trained on (hyperparameters held), the final model elsewhere",
+    "out of period on the in-support parts (refitted without each period's training parts, hyperparameters held), "
+    "the final model elsewhere",
     peer=True,
     estimator="hybridtwin.models.cokriging:CoKriging",
     settings=(
