@@ -1,8 +1,8 @@
 """The plain library uses beside which the benchmarks score the peers and the recommendation (issue 33).
 
 Fitted on the same information as the workflow's peers (the DoE and the in-support parts) and scored alike: out of
-period on the parts they trained on (five folds of consecutive parts, the hyperparameters held), the final model
-elsewhere.
+period on every in-support part (five periods of consecutive parts, each predicted by the model refitted without its
+period's training parts, the hyperparameters held), the final model elsewhere.
 
 - a plain SMT MFK: the documented use (``MFK(theta0=d * [1.0])``, noise estimated: the parts are noisy), inputs
   scaled to the DoE's box, 600 in-support parts as high fidelity;
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from hybridtwin.crossval import period_folds, training_subset
+from hybridtwin.crossval import out_of_period, periods, training_subset
 from hybridtwin.models import registry
 
 PLAIN_MFK, PLAIN_GP = "plain_mfk", "plain_gp_discrepancy"
@@ -58,12 +58,12 @@ class PlainMFK:
     def predict(self, X):
         return self.model_.predict_values(self._scale(X)).ravel()
 
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        out = np.empty(len(self.y_))
-        for train, test in period_folds(len(self.y_), n_folds):
-            model = self._train(self._model(self.theta_), self.X_[train], self.y_[train])
-            out[test] = model.predict_values(self._scale(self.X_[test])).ravel()
-        return out
+    def out_of_period(self, X, period, training_period) -> np.ndarray:
+        return out_of_period(self._without, np.asarray(X, float), period, training_period)
+
+    def _without(self, keep):
+        model = self._train(self._model(self.theta_), self.X_[keep], self.y_[keep])
+        return lambda X: model.predict_values(self._scale(X)).ravel()
 
 
 class PlainGPDiscrepancy:
@@ -79,7 +79,7 @@ class PlainGPDiscrepancy:
 
         doe_x = np.asarray(doe_x, float)
         self.low_, self.width_ = doe_x.min(axis=0), np.ptp(doe_x, axis=0)
-        X, residual = (np.asarray(X, float) - self.low_) / self.width_, np.asarray(residual, float)
+        X, residual = self._scaled(X), np.asarray(residual, float)
         self.rows_ = training_subset(len(residual), self.n_fit, self.seed + 1)
         hyper = self.rows_[training_subset(len(self.rows_), self.n_hyper, self.seed)]
         kernel = ConstantKernel() * Matern(length_scale=np.ones(X.shape[1]), nu=2.5) + WhiteKernel()
@@ -97,30 +97,34 @@ class PlainGPDiscrepancy:
         return GaussianProcessRegressor(self.kernel_, normalize_y=True, optimizer=None).fit(X, y)
 
     def predict(self, X):
-        return self.gp_.predict((np.asarray(X, float) - self.low_) / self.width_)
+        return self.gp_.predict(self._scaled(X))
 
-    def out_of_fold(self, n_folds: int) -> np.ndarray:
-        out = np.empty(len(self.y_))
-        for train, test in period_folds(len(self.y_), n_folds):
-            out[test] = self._fixed(self.X_[train], self.y_[train]).predict(self.X_[test])
-        return out
+    def _scaled(self, X):
+        return (np.asarray(X, float) - self.low_) / self.width_
+
+    def out_of_period(self, X, period, training_period) -> np.ndarray:
+        return out_of_period(self._without, np.asarray(X, float), period, training_period)
+
+    def _without(self, keep):
+        gp = self._fixed(self.X_[keep], self.y_[keep])
+        return lambda X: gp.predict(self._scaled(X))
 
 
 def plain_baselines(doe, production, residuals: pd.DataFrame, inputs, target: str, seed: int, n_folds: int = 5):
-    """Both plain baselines' honest predictions of every part: out of period on the parts they trained on
+    """Both plain baselines' honest predictions of every part: out of period on the in-support parts, as the peers
     (``residuals``: the workflow's residual table: measured, pred_surrogate, residual_approx, in_support)."""
     inside = np.flatnonzero(residuals["in_support"].to_numpy(bool))
     X = production[list(inputs)].to_numpy(float)
     surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
     doe_x, doe_y = doe[list(inputs)], doe[target]
-    out = {}
+    period, out = periods(len(inside), n_folds), {}
     for name, model, learnt, offset in (
         (PLAIN_MFK, PlainMFK(seed=seed), residuals["measured"].to_numpy(float), 0.0),
         (PLAIN_GP, PlainGPDiscrepancy(seed=seed), residuals["residual_approx"].to_numpy(float), surrogate),
     ):
         model.fit(X[inside], learnt[inside], doe_x, doe_y)
+        offset = np.broadcast_to(offset, len(X))
         honest = model.predict(X) + offset
-        trained = inside[model.rows_]
-        honest[trained] = model.out_of_fold(n_folds) + np.broadcast_to(offset, len(X))[trained]
+        honest[inside] = model.out_of_period(X[inside], period, period[model.rows_]) + offset[inside]
         out[name] = honest
     return out
