@@ -28,6 +28,7 @@ import pandas as pd
 from plain_baselines import PLAIN_GP, plain_baselines
 from results_files import write_results
 
+from hybridtwin.crossval import periods
 from hybridtwin.demo import families, harness
 from hybridtwin.io.config import section_defaults
 from hybridtwin.models import registry
@@ -52,15 +53,16 @@ class Before(GPDiscrepancy):
 
 
 def honest(model, run: harness.Run, case) -> np.ndarray:
-    """The model's target prediction per part: out of period where it trained, its final fit elsewhere."""
+    """The model's target prediction per part: out of period in support (as the workflow scores it), its final fit
+    elsewhere."""
     residuals = run.residuals
     inside = np.flatnonzero(residuals["in_support"].to_numpy(bool))
     X = case.production[list(case.inputs)]
     surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
     model.fit(X.iloc[inside], residuals["residual_approx"].to_numpy(float)[inside])
     out = model.predict(X) + surrogate
-    trained = inside[model.training_rows_]
-    out[trained] = model.out_of_fold(5) + surrogate[trained]
+    period = periods(len(inside), 5)
+    out[inside] = model.out_of_period(X.iloc[inside], period, period[model.training_rows_]) + surrogate[inside]
     return out
 
 
