@@ -238,7 +238,9 @@ class CoKriging(RegressorMixin, BaseEstimator):
     def _without(self, keep: np.ndarray, hyperparameters=None):
         """Co-kriging refitted on the fitted parts where ``keep`` (the simulations kept, the hyperparameters held),
         as a function of rows of inputs."""
-        state = ar1_state(self._refit(self.data_["X_high"][keep], self.data_["y_high"][keep], hyperparameters))
+        state = _as_arrays(
+            ar1_state(self._refit(self.data_["X_high"][keep], self.data_["y_high"][keep], hyperparameters))
+        )
         return lambda X: ar1_mean(state, self.standardizer_.transform(X))
 
     def _period_predictions(self, n_folds: int, hyperparameters=None) -> np.ndarray:
