@@ -38,7 +38,7 @@ from bifidelity import FUNCTIONS, TARGET, plant, plant_case
 from plain_baselines import PlainMFK
 from results_files import write_results
 
-from hybridtwin.crossval import periods
+from hybridtwin.crossval import in_support_out_of_period
 from hybridtwin.demo import harness
 from hybridtwin.models.cokriging import CoKriging
 
@@ -65,11 +65,10 @@ def in_support(case: dict, seed: int) -> np.ndarray:
 
 def honest(model, X, inside_rows: np.ndarray, trained: np.ndarray) -> np.ndarray:
     """The final model's predictions, out of period on every in-support part (as the workflow scores it)."""
-    period = periods(len(inside_rows), N_FOLDS)
     inside = X.iloc[inside_rows] if hasattr(X, "iloc") else X[inside_rows]
     with contextlib.redirect_stdout(io.StringIO()):  # SMT prints its search
         values = np.asarray(model.predict(X), float).ravel()
-        values[inside_rows] = model.out_of_period(inside, period, period[trained])
+        values[inside_rows] = in_support_out_of_period(model, inside, trained, N_FOLDS)
     return values
 
 

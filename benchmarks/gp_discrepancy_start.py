@@ -28,7 +28,7 @@ import pandas as pd
 from plain_baselines import PLAIN_GP, plain_baselines
 from results_files import write_results
 
-from hybridtwin.crossval import periods
+from hybridtwin.crossval import in_support_out_of_period
 from hybridtwin.demo import families, harness
 from hybridtwin.io.config import section_defaults
 from hybridtwin.models import registry
@@ -61,8 +61,7 @@ def honest(model, run: harness.Run, case) -> np.ndarray:
     surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
     model.fit(X.iloc[inside], residuals["residual_approx"].to_numpy(float)[inside])
     out = model.predict(X) + surrogate
-    period = periods(len(inside), 5)
-    out[inside] = model.out_of_period(X.iloc[inside], period, period[model.training_rows_]) + surrogate[inside]
+    out[inside] = in_support_out_of_period(model, X.iloc[inside], model.training_rows_, 5) + surrogate[inside]
     return out
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from hybridtwin.crossval import out_of_period, periods, training_subset
+from hybridtwin.crossval import in_support_out_of_period, out_of_period, training_subset
 from hybridtwin.models import registry
 
 PLAIN_MFK, PLAIN_GP = "plain_mfk", "plain_gp_discrepancy"
@@ -117,7 +117,7 @@ def plain_baselines(doe, production, residuals: pd.DataFrame, inputs, target: st
     X = production[list(inputs)].to_numpy(float)
     surrogate = residuals[registry.SURROGATE.column].to_numpy(float)
     doe_x, doe_y = doe[list(inputs)], doe[target]
-    period, out = periods(len(inside), n_folds), {}
+    out = {}
     for name, model, learnt, offset in (
         (PLAIN_MFK, PlainMFK(seed=seed), residuals["measured"].to_numpy(float), 0.0),
         (PLAIN_GP, PlainGPDiscrepancy(seed=seed), residuals["residual_approx"].to_numpy(float), surrogate),
@@ -125,6 +125,6 @@ def plain_baselines(doe, production, residuals: pd.DataFrame, inputs, target: st
         model.fit(X[inside], learnt[inside], doe_x, doe_y)
         offset = np.broadcast_to(offset, len(X))
         honest = model.predict(X) + offset
-        honest[inside] = model.out_of_period(X[inside], period, period[model.rows_]) + offset[inside]
+        honest[inside] = in_support_out_of_period(model, X[inside], model.rows_, n_folds) + offset[inside]
         out[name] = honest
     return out

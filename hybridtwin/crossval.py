@@ -64,6 +64,16 @@ def out_of_period(refit_without, X: np.ndarray, period: np.ndarray, training_per
     return out
 
 
+def in_support_out_of_period(model, inside, training_rows: np.ndarray, n_folds: int, rows=None) -> np.ndarray:
+    """``model.out_of_period`` at ``rows`` (default: all) of ``inside``, the in-support parts in time order that
+    the model was fitted on (``training_rows``: its training parts among them): each part predicted by the model
+    refitted without the training parts of its period, the ``n_folds`` periods the hybrid's CV uses."""
+    period = periods(len(inside), n_folds)
+    rows = np.arange(len(inside)) if rows is None else np.asarray(rows)
+    asked = inside.iloc[rows] if hasattr(inside, "iloc") else np.asarray(inside)[rows]
+    return model.out_of_period(asked, period[rows], period[np.asarray(training_rows)])
+
+
 def ids_of(splits, n_rows: int) -> np.ndarray:
     """Each row's fold (1..K) in ``splits``: written beside out-of-fold predictions so that a later step
     scores on the very same split."""

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.crossval import periods, training_subset
+from hybridtwin.crossval import in_support_out_of_period, training_subset
 from hybridtwin.io.files import in_support
 from hybridtwin.models import registry
 from hybridtwin.models.batches import chunks
@@ -89,14 +89,10 @@ def fit_peer(
     final[predicted] = as_target(name, model.predict(production.iloc[predicted][inputs]), surrogate[predicted])
     # in support, out of period as the hybrid is scored: each part from the peer refitted without its period's
     # training parts (the final model has seen its neighbours in time: its campaign, its coil)
-    period = periods(len(inside), n_folds)
-    scored = np.flatnonzero(np.isfinite(final[inside]) | np.isin(np.arange(len(inside)), model.training_rows_))
+    scored = np.union1d(np.flatnonzero(np.isfinite(final[inside])), model.training_rows_)
     honest = final.copy()
-    honest[inside[scored]] = as_target(
-        name,
-        model.out_of_period(production.iloc[inside[scored]][inputs], period[scored], period[model.training_rows_]),
-        surrogate[inside[scored]],
-    )
+    values = in_support_out_of_period(model, production.iloc[inside][inputs], model.training_rows_, n_folds, scored)
+    honest[inside[scored]] = as_target(name, values, surrogate[inside[scored]])
     return PeerFit(
         model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_)
     )
