@@ -83,10 +83,11 @@ def test_cokriging_predicts_what_smt_predicts_without_smt_and_reads_its_older_fi
     )
     trained = model._refit()  # SMT's model with the chosen hyperparameters on every part
     expected = trained.predict_values(model.standardizer_.transform(case["new"].to_numpy())).ravel()
-    assert np.allclose(model.predict(case["new"]), expected, rtol=1e-9, atol=1e-9)
+    # to rounding: the two solve the same kriging systems in another order (1e-8 apart on an AMD EPYC's BLAS)
+    assert np.allclose(model.predict(case["new"]), expected, rtol=1e-7, atol=1e-7)
     assert np.ptp(expected) > 1  # a test of the levels' sum, not of a constant
     older = {key: value for key, value in model.to_dict().items() if key != "state"}  # format 1: refitted on load
-    assert np.allclose(CoKriging.from_dict(older).predict(case["new"]), expected, rtol=1e-9, atol=1e-9)
+    assert np.allclose(CoKriging.from_dict(older).predict(case["new"]), expected, rtol=1e-7, atol=1e-7)
     with pytest.raises(ValueError, match="squared-exponential"):  # a kernel the numpy predictor does not evaluate
         CoKriging(n_high=60, n_start=1, n_searches=1, corr="abs_exp").fit(
             case["parts"], case["y_parts"], X_low=case["doe"], y_low=case["y_doe"]

@@ -13,7 +13,7 @@ def nearest_index(reference, k: int) -> NearestNeighbors:
     """A k-nearest-neighbour index of ``reference`` (standardized inputs) by brute force: on a dozen inputs
     scikit-learn's default (a k-d tree) is five times slower (100,000 rows against 2,000 logged parts: 1.44 s
     against 0.29 s; 1,000,000 rows against 44 DoE runs: 0.79 s against 0.16 s). The distances agree with the
-    exact ones to 1e-14, and to 2e-7 for a row within a hair of a reference row (its distance from a difference of
+    exact ones to 1e-14, and to 3e-7 for a row on or within a hair of a reference row (its distance from a difference of
     squares): far below any threshold's resolution."""
     return NearestNeighbors(n_neighbors=k, algorithm="brute").fit(reference)
 
