@@ -24,7 +24,7 @@ from hybridtwin.answers.regions import (
     as_regions,
     calibration_rows,
     distance_edges,
-    outside_range,
+    outside_range_by_parts,
     region_label,
 )
 from hybridtwin.answers.trust import EXTRAPOLATION, Reach, trust_levels
@@ -206,19 +206,18 @@ def calibrate(
     """Regions, intervals and recommended models from results/predictions/production.csv, and their test table
     (``settings``: the config's ``intervals``: level, distance_bins, blocks)."""
     level = settings["level"]
-    amounts = outside_range(inputs, doe_range)
-    beyond = (amounts != 0).any(axis=1).to_numpy()
     inside = in_support(predictions)
     distance = predictions["knn_distance"].to_numpy(float)
     calibration = calibration_rows(len(predictions), settings["blocks"])
+    beyond, extremes = beyond_range(inputs, doe_range, calibration)
     least = max(MIN_CALIBRATION_ROWS, min_calibration_rows(level))
     edges = distance_edges(distance[calibration & ~inside], settings["distance_bins"], least)
     region = Regions.of(inside, beyond, distance, edges, np.sum(calibration & inside & beyond) >= least)
     honest = honest_predictions(predictions)
     measured = predictions["measured"].to_numpy(float)
-    reach = Reach.of(amounts[calibration], distance[calibration], ~inside[calibration], threshold, doe_range, units)
+    reach = Reach.of(extremes, distance[calibration], ~inside[calibration], threshold, doe_range, units)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
-    usable = trust_levels(inside, amounts, distance, reach) != EXTRAPOLATION
+    usable = trust_by_parts(inputs, doe_range, inside, distance, reach) != EXTRAPOLATION
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model
@@ -229,6 +228,27 @@ def calibrate(
     table["best_on_test"] = table["region"].map(best)
     table["choice_holds"] = table["region"].map({name: fitted.recommended[name] == m for name, m in best.items()})
     return Calibration(fitted, table, region, calibration, with_stack)
+
+
+def beyond_range(inputs: pd.DataFrame, doe_range: dict, calibration) -> tuple[np.ndarray, pd.DataFrame]:
+    """Which rows lie beyond a DoE range, and the calibration rows' smallest and largest distance beyond each
+    range (what :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part
+    log (1 GB) are never held whole."""
+    beyond, extremes = np.zeros(len(inputs), bool), []
+    for rows, amounts in outside_range_by_parts(inputs, doe_range):
+        beyond[rows] = (amounts != 0).any(axis=1).to_numpy()
+        calibrating = amounts[calibration[rows]]
+        extremes += [calibrating.min(), calibrating.max()]
+    return beyond, pd.DataFrame(extremes, columns=list(doe_range))
+
+
+def trust_by_parts(inputs: pd.DataFrame, doe_range: dict, inside, distance, reach: Reach) -> np.ndarray:
+    """:func:`~hybridtwin.answers.trust.trust_levels` of every row, a million rows at a time."""
+    verdicts = [
+        trust_levels(inside[rows], amounts, distance[rows], reach)
+        for rows, amounts in outside_range_by_parts(inputs, doe_range)
+    ]
+    return np.concatenate(verdicts) if verdicts else np.empty(0, object)
 
 
 def best_on_test(measured, honest: dict[str, np.ndarray], choice, calibration, fitted: RegionIntervals) -> dict:

@@ -24,13 +24,26 @@ def out_of_support_region(index: int) -> str:
     return f"out_of_support_{index}"
 
 
+# rows whose distances beyond the DoE's ranges are held at once on a long log (a dozen inputs: 100 MB)
+ROWS_AT_ONCE = 1_000_000
+
+
 def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> pd.DataFrame:
-    """How far each row lies beyond the DoE's range, per input, in the input's own unit (0 inside)."""
+    """How far each row lies beyond the DoE's range, per input, in the input's own unit (0 inside; 0 for a
+    missing value)."""
     beyond = {}
     for name, (low, high) in doe_range.items():
         values = frame[name].to_numpy(float)
-        beyond[name] = np.where(values > high, values - high, np.where(values < low, values - low, 0.0))
+        amounts = values - np.clip(values, low, high)
+        beyond[name] = np.where(np.isnan(amounts), 0.0, amounts)
     return pd.DataFrame(beyond, index=frame.index)
+
+
+def outside_range_by_parts(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]):
+    """:func:`outside_range` of :data:`ROWS_AT_ONCE` rows at a time: (the rows' slice, their distances)."""
+    for start in range(0, len(frame), ROWS_AT_ONCE):
+        rows = slice(start, min(len(frame), start + ROWS_AT_ONCE))
+        yield rows, outside_range(frame.iloc[rows], doe_range)
 
 
 def describe_outside(beyond: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> list[str]:
