@@ -113,6 +113,29 @@ def test_outside_range_is_in_the_inputs_own_unit_and_named():
     assert regions.describe_outside(regions.outside_range(frame, doe_range), doe_range)[1] == (
         "die_temp_c 3.5 above the DoE's max 55; shim_mm 0.15 above the DoE's max 0.6"
     )
+    frame.loc[2, "shim_mm"] = np.nan  # a missing value lies beyond nothing
+    assert regions.outside_range(frame, doe_range)["shim_mm"].tolist() == pytest.approx([0.0, 0.15, 0.0])
+
+
+def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdicts(monkeypatch):
+    rng = np.random.default_rng(3)
+    frame = pd.DataFrame({"a": rng.normal(0, 2, 2500), "b": rng.normal(0, 1, 2500)})
+    doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
+    calibration = rng.random(2500) < 0.5
+    whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range, calibration)
+    monkeypatch.setattr(regions, "ROWS_AT_ONCE", 700)  # four parts, the last short
+    beyond, extremes = coverage.beyond_range(frame, doe_range, calibration)
+    amounts = regions.outside_range(frame, doe_range)
+    assert np.array_equal(beyond, (amounts != 0).any(axis=1).to_numpy()) and np.array_equal(beyond, whole_beyond)
+    assert extremes.min().tolist() == amounts[calibration].min().tolist() == whole_extremes.min().tolist()
+    assert extremes.max().tolist() == amounts[calibration].max().tolist()
+    from hybridtwin.answers.trust import Reach, trust_levels
+
+    inside, distance = ~beyond & (rng.random(2500) < 0.8), rng.random(2500)
+    reach = Reach.of(extremes.iloc[:4], distance[calibration], ~inside[calibration], 0.5, doe_range)  # two parts'
+    verdicts = coverage.trust_by_parts(frame, doe_range, inside, distance, reach)
+    assert np.array_equal(verdicts, trust_levels(inside, amounts, distance, reach))
+    assert {"validated", "calibrated", "extrapolation"} <= set(verdicts)
 
 
 def test_distance_bins_hold_enough_calibration_rows():
