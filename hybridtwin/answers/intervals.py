@@ -234,7 +234,7 @@ class RegionIntervals:
         prediction = np.asarray(prediction, float)
         region = np.asarray(region, object)
         half = np.full(len(prediction), np.nan)
-        for name in set(region.tolist()):
+        for name in pd.unique(region):
             half[region == name] = self.half_width(model, name, level)
         return prediction - half, prediction + half
 
@@ -283,19 +283,10 @@ def recommended_prediction(
     """pred_recommended, recommended_model, pred_lower, pred_upper per row."""
     region = as_regions(region)
     chosen = intervals.recommend(region, predictions)
-    n = len(chosen)
-    out = pd.DataFrame(
-        {
-            RECOMMENDED_COLUMN: np.full(n, np.nan),
-            "recommended_model": chosen,
-            "pred_lower": np.full(n, np.nan),
-            "pred_upper": np.full(n, np.nan),
-        }
-    )
-    for model in sorted(set(chosen)):
+    prediction, lower, upper = (np.full(len(chosen), np.nan) for _ in range(3))
+    for model in sorted(pd.unique(chosen)):
         rows = np.flatnonzero(chosen == model)
-        lower, upper = intervals.interval(model, predictions[model][rows], region.interval[rows], level)
-        out.loc[rows, RECOMMENDED_COLUMN] = predictions[model][rows]
-        out.loc[rows, "pred_lower"] = lower
-        out.loc[rows, "pred_upper"] = upper
-    return out
+        lower[rows], upper[rows] = intervals.interval(model, predictions[model][rows], region.interval[rows], level)
+        prediction[rows] = predictions[model][rows]
+    frame = {RECOMMENDED_COLUMN: prediction, "recommended_model": chosen, "pred_lower": lower, "pred_upper": upper}
+    return pd.DataFrame(frame)

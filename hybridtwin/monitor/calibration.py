@@ -50,10 +50,10 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(values**2))) if len(values) else float("nan")
 
 
-def scales(residual, z, region, group) -> tuple[dict, float, float, float]:
+def scales(raw, z, region, group, levels) -> tuple[dict, float, float, float]:
     """The within-regime scatter per region and pooled (target's unit), z's scatter inside a regime, and the
-    spread of the regimes' levels beyond it."""
-    raw = regimes.within(residual, group, chart.LEAST_WITHIN, chart.WITHIN_WINDOW)
+    spread of the regimes' levels beyond it; ``raw``: :func:`chart.within_residuals`, ``levels``:
+    :func:`chart.regime_levels`."""
     region = np.asarray(region, object)
     pooled = _rms(raw)
     per_region = {
@@ -63,7 +63,7 @@ def scales(residual, z, region, group) -> tuple[dict, float, float, float]:
     }
     inside = regimes.within(z, group, 1)  # z against the mean before it: sqrt(1 + 1/n) is taken out
     level_within = _rms(inside)
-    means, counts, _ = regimes.levels(z, group, chart.LEVEL_PARTS, chart.LEAST_LEVEL)
+    means, counts, _ = levels
     between = np.sqrt(max(np.mean(means**2) - np.mean(level_within**2 / counts), 0.05**2)) if len(means) else 1.0
     return per_region, pooled, level_within, float(between)
 
@@ -102,10 +102,12 @@ def constants(
     starts = found.starts(log)
     group = regimes.labels(starts, models)
     residual = np.where(np.isnan(z), np.nan, residual)
-    per_region, pooled, level_within, between = scales(residual, z, region, group)
+    # each used twice: for the scales, then for the steps whose highest values set the limits
+    raw, levels = chart.within_residuals(residual, group), chart.regime_levels(z, group)
+    per_region, pooled, level_within, between = scales(raw, z, region, group, levels)
     provisional = chart.Constants(per_region, pooled, level_within, between, np.inf, np.inf)
-    within = chart.within_steps(residual, region, group, provisional)
-    level = chart.level_steps(z, group, provisional)
+    within = chart.within_steps(residual, region, group, provisional, raw)
+    level = chart.level_steps(z, group, provisional, levels)
     h_within, h_level = limits(within, level, starts, seed)
     return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level), group
 

@@ -23,9 +23,11 @@ the production log (:mod:`.calibration`).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 REFERENCE = 1.0  # k, in expected errors
 LIMIT = 20.0  # h, in expected errors
@@ -35,12 +37,16 @@ CLIP = 4.0  # largest |z| one part contributes
 def expected_error(intervals, models, regions) -> np.ndarray:
     """Per row, the in-control error of its recommended model in its interval region: the root mean square of
     the calibration errors (NaN where the region has none)."""
-    models, regions = np.asarray(models, object), np.asarray(regions, object)
-    out = np.full(len(models), np.nan)
-    for model, region in set(zip(models.tolist(), regions.tolist())):
+    model_codes, model_names = pd.factorize(np.asarray(models, object))
+    region_codes, region_names = pd.factorize(np.asarray(regions, object))
+    per_pair = np.full((len(model_names), len(region_names)), np.nan)
+    for (i, model), (j, region) in itertools.product(enumerate(model_names), enumerate(region_names)):
         errors = np.asarray(intervals.calibration.get(model, {}).get(region, []), float)
         if len(errors):
-            out[(models == model) & (regions == region)] = float(np.sqrt(np.mean(errors**2)))
+            per_pair[i, j] = float(np.sqrt(np.mean(errors**2)))
+    out = np.full(len(model_codes), np.nan)
+    known = (model_codes >= 0) & (region_codes >= 0)  # a row without a model or region has none
+    out[known] = per_pair[model_codes[known], region_codes[known]]
     return out
 
 
@@ -136,24 +142,34 @@ class Constants:
         return cls(**{name: data[name] for name in cls.__dataclass_fields__})
 
 
-def within_steps(residual, region, group, constants: Constants) -> np.ndarray:
-    """Each part's self-starting within-regime residual in SDs of the log's within-regime scatter (NaN: not
-    judged, or among the first parts of its regime)."""
+def within_residuals(residual, group) -> np.ndarray:
+    """Each part's self-starting within-regime residual in the target's unit (:func:`regimes.within`)."""
     from hybridtwin.monitor.regimes import within
 
+    return within(residual, group, LEAST_WITHIN, WITHIN_WINDOW)
+
+
+def regime_levels(z, group) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The regimes' levels in z, how many parts each, and the part at which each is known (:func:`regimes.levels`)."""
+    from hybridtwin.monitor.regimes import levels
+
+    return levels(z, group, LEVEL_PARTS, LEAST_LEVEL)
+
+
+def within_steps(residual, region, group, constants: Constants, raw=None) -> np.ndarray:
+    """Each part's self-starting within-regime residual in SDs of the log's within-regime scatter (NaN: not
+    judged, or among the first parts of its regime); ``raw``: :func:`within_residuals`, if computed already."""
     region = np.asarray(region, object)
     scale = np.full(len(region), constants.pooled_scale)
     for name, value in constants.within_scale.items():
         scale[region == name] = value
-    return within(residual, group, LEAST_WITHIN, WITHIN_WINDOW) / scale
+    return (within_residuals(residual, group) if raw is None else raw) / scale
 
 
-def level_steps(z, group, constants: Constants) -> np.ndarray:
+def level_steps(z, group, constants: Constants, found=None) -> np.ndarray:
     """Per part, NaN except at the part where a regime's level becomes known: there, the level in SDs of the
-    log's regime levels (for that many parts)."""
-    from hybridtwin.monitor.regimes import levels
-
-    means, counts, at = levels(z, group, LEVEL_PARTS, LEAST_LEVEL)
+    log's regime levels (for that many parts); ``found``: :func:`regime_levels`, if computed already."""
+    means, counts, at = regime_levels(z, group) if found is None else found
     out = np.full(len(np.asarray(z)), np.nan)
     out[at] = means / np.sqrt(constants.level_between**2 + constants.level_within**2 / counts)
     return out
