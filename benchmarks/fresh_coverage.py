@@ -5,7 +5,8 @@ first N parts and the fresh parts are the 8,000 that follow (the same plant, a l
 campaigns). The real workflow runs on the log (snakemake, a config of the user's kind); ``hybridtwin``'s frozen
 predictor then answers the fresh parts, and each region's coverage of their measured values is counted with its
 95% Clopper-Pearson interval, beside the trust verdicts and the daily check's verdict on the same parts
-(``hybridtwin monitor``: the first part at which it says the plant no longer matches the models, if any). Usage:
+(``hybridtwin monitor``: the first part at which it says the plant no longer matches the models, if any), and
+counted again on the parts before that alarm: after it the tool no longer vouches for its models. Usage:
 
     python benchmarks/fresh_coverage.py --plants 8 --seed 1          # about 2 minutes a plant, alone on 2 cores
 
@@ -98,18 +99,26 @@ def run_workflow(folder: Path, doe, log, matched, inputs, target, seed: int) -> 
     return folder / "results" / "models"
 
 
-def coverage_rows(name: str, n_log: int, answers: pd.DataFrame, measured: np.ndarray, level: float) -> list[dict]:
+def coverage_rows(
+    name: str, n_log: int, answers: pd.DataFrame, measured: np.ndarray, level: float, alarm_at: int | None
+) -> list[dict]:
+    """Per region with an interval: the coverage of the fresh parts' measured values, of all of them and of those
+    before the daily check's first alarm (``alarm_at``, 0-based; None: no alarm), where the tool still vouches
+    for its models."""
     rows = []
     has = answers["pred_lower"].notna().to_numpy()
     covered = (measured >= answers["pred_lower"].to_numpy()) & (measured <= answers["pred_upper"].to_numpy())
+    before = np.arange(len(answers)) < (len(answers) if alarm_at is None else alarm_at)
     for region in sorted(set(answers.loc[has, "interval_region"])):
         here = has & (answers["interval_region"] == region).to_numpy()
         k, n = int(covered[here].sum()), int(here.sum())
         low, high = clopper_pearson(k, n)
         width = float((answers["pred_upper"] - answers["pred_lower"])[here].mean())
+        k_before, n_before = int(covered[here & before].sum()), int((here & before).sum())
         rows.append(
             {"plant": name, "n_log": n_log, "region": region, "n_fresh": n, "coverage": k / n, "coverage_low": low,
-             "coverage_high": high, "nominal": level, "mean_width": width}
+             "coverage_high": high, "nominal": level, "mean_width": width, "n_before_alarm": n_before,
+             "coverage_before_alarm": k_before / n_before if n_before else np.nan}
         )  # fmt: skip
     verdicts = answers["trust"].value_counts(normalize=True)
     for row in rows:
@@ -118,17 +127,26 @@ def coverage_rows(name: str, n_log: int, answers: pd.DataFrame, measured: np.nda
     return rows
 
 
+def _pooled(rows: pd.DataFrame, coverage: str, parts: str) -> tuple[int, int, float, float]:
+    k, n = int((rows[coverage].fillna(0) * rows[parts]).round().sum()), int(rows[parts].sum())
+    return (k, n, *clopper_pearson(k, n))
+
+
 def summary(table: pd.DataFrame) -> str:
     lines = [
-        "| region | plants | fresh parts | coverage (pooled) | 95% interval | worst plant | mean width |",
-        "|---|---:|---:|---:|---|---:|---:|",
+        "| region | plants | fresh parts | coverage (pooled) | 95% interval | worst plant | mean width | "
+        "before the daily check's alarm: parts | coverage (pooled) | 95% interval | worst region (100+ parts) |",
+        "|---|---:|---:|---:|---|---:|---:|---:|---:|---|---:|",
     ]
     for region, rows in table.groupby(table["region"].where(table["region"] == "in_support", "out of support")):
-        k, n = int((rows["coverage"] * rows["n_fresh"]).round().sum()), int(rows["n_fresh"].sum())
-        low, high = clopper_pearson(k, n)
+        k, n, low, high = _pooled(rows, "coverage", "n_fresh")
+        k_before, n_before, low_before, high_before = _pooled(rows, "coverage_before_alarm", "n_before_alarm")
+        counted = rows.loc[rows["n_before_alarm"] >= 100, "coverage_before_alarm"]
         lines.append(
             f"| {region} | {rows['plant'].nunique()} | {n:,} | {k / n:.1%} | {low:.1%} to {high:.1%} | "
-            f"{rows['coverage'].min():.1%} | {rows['mean_width'].mean():.2f} |"
+            f"{rows['coverage'].min():.1%} | {rows['mean_width'].mean():.2f} | {n_before:,} | "
+            f"{k_before / max(n_before, 1):.1%} | {low_before:.1%} to {high_before:.1%} | "
+            f"{counted.min() if len(counted) else np.nan:.1%} |"
         )
     lines += ["", "| plant | log | worst region | the daily check on the fresh parts |", "|---|---:|---|---|"]
     for plant, rows in table.groupby("plant", sort=False):
@@ -156,7 +174,7 @@ def main() -> None:
             predictor = Predictor.load(models)
             answers = predictor.predict(fresh, all_models=True)
             alarm_at = watch.watch(predictor, fresh, explain=False).chart.alarm_at
-        found = coverage_rows(name, len(log), answers, fresh[target].to_numpy(float), predictor.level)
+        found = coverage_rows(name, len(log), answers, fresh[target].to_numpy(float), predictor.level, alarm_at)
         for row in found:  # the monitor's first alarm (1-based part of the fresh period), NaN: none
             row["monitor_alarm_at"] = np.nan if alarm_at is None else alarm_at + 1
         rows += found
