@@ -113,12 +113,9 @@ def within(residual: np.ndarray, group: np.ndarray, least: int, window: int | No
     judged = np.flatnonzero(np.isfinite(residual))
     if not len(judged):
         return out
-    group = np.asarray(group)[judged]
-    order = np.argsort(group, kind="stable")  # each regime's judged parts together, in time order
-    values, sorted_group = residual[judged][order], group[order]
-    first = np.r_[True, sorted_group[1:] != sorted_group[:-1]]
-    begin = np.maximum.accumulate(np.where(first, np.arange(len(values)), 0))  # where the part's regime begins
-    before = np.arange(len(values)) - begin  # judged parts before it in its regime
+    # each regime's judged parts together, in time order, and the judged parts before each in its regime
+    order, before = _by_group(np.asarray(group)[judged])
+    values = residual[judged][order]
     total = np.r_[0.0, np.cumsum(values)]
     counted = before if window is None else np.minimum(before, window)
     sums = total[np.arange(len(values))] - total[np.arange(len(values)) - counted]
@@ -129,6 +126,24 @@ def within(residual: np.ndarray, group: np.ndarray, least: int, window: int | No
     return out
 
 
+def _by_group(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The order that puts each group's elements together (in their order), and in that order each element's
+    count of earlier elements of its group."""
+    order = np.argsort(group, kind="stable")
+    ordered = group[order]
+    first = np.r_[True, ordered[1:] != ordered[:-1]]
+    position = np.arange(len(group))
+    return order, position - np.maximum.accumulate(np.where(first, position, 0))
+
+
+def _rank_in_group(group: np.ndarray) -> np.ndarray:
+    """Each element's count of earlier elements of its group, in the given order."""
+    order, before = _by_group(group)
+    rank = np.empty(len(group), np.int64)
+    rank[order] = before
+    return rank
+
+
 def levels(z: np.ndarray, group: np.ndarray, parts: int, least: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per regime with at least ``least`` judged parts: the mean of ``z`` over its first ``parts`` judged parts, how
     many, and the index of the part at which that mean is known (its last such part)."""
@@ -136,8 +151,9 @@ def levels(z: np.ndarray, group: np.ndarray, parts: int, least: int) -> tuple[np
     judged = np.flatnonzero(np.isfinite(z))
     if not len(judged):
         return np.zeros(0), np.zeros(0, int), np.zeros(0, int)
-    frame = pd.DataFrame({"g": np.asarray(group)[judged], "x": z[judged], "at": judged})
-    frame = frame[frame.groupby("g").cumcount().to_numpy() < parts]
+    group = np.asarray(group)[judged]
+    first = _rank_in_group(group) < parts  # a table of these rows only: a long log's regimes hold far more
+    frame = pd.DataFrame({"g": group[first], "x": z[judged[first]], "at": judged[first]})
     grouped = frame.groupby("g").agg(mean=("x", "mean"), n=("x", "size"), at=("at", "max"))
     grouped = grouped[grouped["n"] >= least]
     return grouped["mean"].to_numpy(float), grouped["n"].to_numpy(int), grouped["at"].to_numpy(int)
