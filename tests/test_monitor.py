@@ -108,6 +108,9 @@ def test_the_within_regime_residual_is_against_the_mean_of_the_parts_before_it_b
     means, counts, at = regimes.levels(residual, group, parts=2, least=1)
     np.testing.assert_allclose(means, [2.0, 6.0])
     assert counts.tolist() == [2, 2] and at.tolist() == [1, 6]
+    # interleaved regimes (a model pair within one): each level over its own first parts, in time order
+    means, counts, at = regimes.levels(np.array([1.0, 4.0, 3.0, 9.0, 8.0, 9.0]), np.array([5, 2, 5, 5, 2, 2]), 2, 1)
+    assert means.tolist() == [6.0, 2.0] and counts.tolist() == [2, 2] and at.tolist() == [4, 2]
 
 
 def _campaigns(rng, n, length, spread):
