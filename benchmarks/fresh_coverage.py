@@ -145,8 +145,8 @@ def summary(table: pd.DataFrame) -> str:
         lines.append(
             f"| {region} | {rows['plant'].nunique()} | {n:,} | {k / n:.1%} | {low:.1%} to {high:.1%} | "
             f"{rows['coverage'].min():.1%} | {rows['mean_width'].mean():.2f} | {n_before:,} | "
-            f"{k_before / max(n_before, 1):.1%} | {low_before:.1%} to {high_before:.1%} | "
-            f"{counted.min() if len(counted) else np.nan:.1%} |"
+            + (f"{k_before / n_before:.1%} | {low_before:.1%} to {high_before:.1%} | " if n_before else "– | – | ")
+            + (f"{counted.min():.1%} |" if len(counted) else "– |")
         )
     lines += ["", "| plant | log | worst region | the daily check on the fresh parts |", "|---|---:|---|---|"]
     for plant, rows in table.groupby("plant", sort=False):

@@ -121,7 +121,7 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdi
     rng = np.random.default_rng(3)
     frame = pd.DataFrame({"a": rng.normal(0, 2, 2500), "b": rng.normal(0, 1, 2500)})
     doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
-    calibration = rng.random(2500) < 0.5
+    calibration = (rng.random(2500) < 0.5) & (np.arange(2500) >= 700)  # the first part calibrates nothing
     whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range, calibration)
     monkeypatch.setattr(regions, "ROWS_AT_ONCE", 700)  # four parts, the last short
     beyond, extremes = coverage.beyond_range(frame, doe_range, calibration)

@@ -29,8 +29,8 @@ ROWS_AT_ONCE = 1_000_000
 
 
 def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> pd.DataFrame:
-    """How far each row lies beyond the DoE's range, per input, in the input's own unit (0 inside; 0 for a
-    missing value)."""
+    """How far each row lies beyond the DoE's range (``doe_range``: each input's DoE minimum and maximum), per
+    input, in the input's own unit (0 inside; 0 for a missing value)."""
     beyond = {}
     for name, (low, high) in doe_range.items():
         values = frame[name].to_numpy(float)
