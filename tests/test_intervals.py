@@ -132,7 +132,8 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdi
     from hybridtwin.answers.trust import Reach, trust_levels
 
     inside, distance = ~beyond & (rng.random(2500) < 0.8), rng.random(2500)
-    reach = Reach.of(extremes.iloc[:4], distance[calibration], ~inside[calibration], 0.5, doe_range)  # two parts'
+    # the reach of the first two parts' calibration rows only (the first has none): rows of later parts lie past it
+    reach = Reach.of(extremes.iloc[:4], distance[calibration], ~inside[calibration], 0.5, doe_range)
     verdicts = coverage.trust_by_parts(frame, doe_range, inside, distance, reach)
     assert np.array_equal(verdicts, trust_levels(inside, amounts, distance, reach))
     assert {"validated", "calibrated", "extrapolation"} <= set(verdicts)

@@ -217,6 +217,7 @@ def calibrate(
     measured = predictions["measured"].to_numpy(float)
     reach = Reach.of(extremes, distance[calibration], ~inside[calibration], threshold, doe_range, units)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
+    # a second pass over the log's distances: the verdicts need the reach, which needs every calibration row
     usable = trust_by_parts(inputs, doe_range, inside, distance, reach) != EXTRAPOLATION
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable)
     table[RECOMMENDED] = [
