@@ -72,17 +72,21 @@ def _mfk_class():
 
     class SquaredExponential(PowExp):
         """SMT's kernel with the same values, 3 times faster on the likelihood's pairwise distances: it keeps a
-        column-major copy of the distance matrix it is given (the same array at every step of a search)."""
+        column-major copy of the distance matrix it is given (the same array at every step of a search). A matrix
+        seen once (a refit's single likelihood evaluation) gets SMT's own sum: its copy would cost more."""
 
-        _source = _columns = _work = None
+        _seen = _source = _columns = _work = None
 
         def __call__(self, d, grad_ind=None, hess_ind=None, derivative_params=None):
             # numpy adds a row of a column-major matrix in another order: SMT's own sum there (it passes C order)
             derivative = grad_ind is not None or hess_ind is not None or derivative_params is not None
             if derivative or not d.flags.c_contiguous or len(self.theta) != d.shape[1]:
                 return super().__call__(d, grad_ind, hess_ind, derivative_params)
+            if d is not self._source and d is not self._seen:
+                self._seen = d
+                return super().__call__(d)
             if d is not self._source:
-                self._source, self._columns = d, np.asfortranarray(d)
+                self._seen, self._source, self._columns = None, d, np.asfortranarray(d)
                 self._work = np.empty((len(d), 9), order="F")
             total = column_sum(self._columns, self.theta, self._work)
             result = np.negative(total)
