@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.io.files import in_support, read_checked, side_by_side
+from hybridtwin.io.files import column_names, in_support, read_checked, side_by_side
 from hybridtwin.models import registry
 
 
@@ -211,10 +211,16 @@ def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict)
     return fit_peer(name, doe, production, residual_table, spec.inputs, spec.target, settings, spec.seed, spec.folds)
 
 
-def read_predictions(hybrid, extension, peers) -> pd.DataFrame:
+def read_predictions(hybrid, extension, peers, columns=None) -> pd.DataFrame:
     """:func:`joined_predictions` of the steps' own files (paths): the table of results/predictions/production.csv,
-    which is written for the user, read faster from its parts."""
-    return joined_predictions(read_checked(hybrid), read_checked(extension), [read_checked(path) for path in peers])
+    which is written for the user, read faster from its parts; only ``columns`` (those of them a file has), if
+    given."""
+    wanted = None if columns is None else set(columns)
+
+    def read(path):
+        return read_checked(path, None if wanted is None else [c for c in column_names(path) if c in wanted])
+
+    return joined_predictions(read(hybrid), read(extension), [read(path) for path in peers])
 
 
 def joined_predictions(hybrid_table: pd.DataFrame, extension_table: pd.DataFrame, peer_tables) -> pd.DataFrame:
@@ -299,8 +305,10 @@ def production_reach(production: pd.DataFrame, gate, spec: Spec, n_blocks: int):
     """The log's parts, DoE-standardized, and how novel a new period may be (:mod:`answers.novelty`)."""
     from hybridtwin.answers.novelty import ProductionNeighbourhood
 
-    Z = gate.standardizer_.transform(production[list(spec.inputs)])
-    return ProductionNeighbourhood(n_blocks=n_blocks, seed=spec.seed).fit(Z)
+    reach = ProductionNeighbourhood(n_blocks=n_blocks, seed=spec.seed)
+    # only the parts it keeps are standardized: a ten-million-part log whole took 2 GB
+    kept = production.iloc[reach.kept_rows(len(production))]
+    return reach.fit(gate.standardizer_.transform(kept[list(spec.inputs)]))
 
 
 def typical(production: pd.DataFrame, inside, columns) -> dict[str, float]:

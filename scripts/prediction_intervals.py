@@ -6,6 +6,7 @@ from pathlib import Path
 
 from hybridtwin import pipeline
 from hybridtwin.answers import coverage
+from hybridtwin.answers.intervals import answer_columns
 from hybridtwin.answers.predictor import Predictor
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import files
@@ -21,7 +22,7 @@ def main(snakemake):
     p, spec = snakemake.params, spec_of(snakemake)
     found = snakemake.input
     predictions = pipeline.read_predictions(
-        found.hybrid_predictions, found.extension_predictions, found.peer_predictions
+        found.hybrid_predictions, found.extension_predictions, found.peer_predictions, answer_columns()
     )
     doe, log, matched = (read_checked(found[name]) for name in ("doe", "production", "matched"))
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))

@@ -73,6 +73,14 @@ def min_calibration_rows(level: float, delta: float = DELTA) -> int:
     return int(np.ceil(np.log(delta) / np.log(level)))
 
 
+def answer_columns() -> list[str]:
+    """The columns of results/predictions/production.csv that the answers' calibration reads (what
+    :func:`honest_predictions` takes, the support, the distance to the DoE and the measured value): on a log of
+    ten million parts the other half of the table (the final models' predictions, the residuals) is 0.9 GB."""
+    oof = [model.oof_column for model in registry.WITH_OOF_COLUMN]
+    return ["in_support", "knn_distance", "measured", registry.SURROGATE.column, *oof]
+
+
 def honest_predictions(predictions: pd.DataFrame) -> dict[str, np.ndarray]:
     """Per model, the predictions no row was trained on (columns of results/predictions/production.csv)."""
     surrogate = predictions[registry.SURROGATE.column].to_numpy(float)
@@ -288,5 +296,8 @@ def recommended_prediction(
         rows = np.flatnonzero(chosen == model)
         lower[rows], upper[rows] = intervals.interval(model, predictions[model][rows], region.interval[rows], level)
         prediction[rows] = predictions[model][rows]
-    frame = {RECOMMENDED_COLUMN: prediction, "recommended_model": chosen, "pred_lower": lower, "pred_upper": upper}
+    # the names stay Python objects, a few shared by every row: as pandas' text dtype they were copied into Arrow,
+    # and each row's name made again as an object by the monitor's calibration (1.3 GB on ten million parts)
+    models = pd.Series(chosen, dtype=object)
+    frame = {RECOMMENDED_COLUMN: prediction, "recommended_model": models, "pred_lower": lower, "pred_upper": upper}
     return pd.DataFrame(frame)

@@ -22,10 +22,14 @@ class ProductionNeighbourhood:
     def __init__(self, k: int = 5, n_blocks: int = 20, max_rows: int = 2000, seed: int = 0):
         self.k, self.n_blocks, self.max_rows, self.seed = k, n_blocks, max_rows, seed
 
+    def kept_rows(self, n_rows: int) -> np.ndarray:
+        """The positions of the parts kept of a log of ``n_rows`` (in time order: the blocks stay periods)."""
+        return training_subset(n_rows, self.max_rows, self.seed)
+
     def fit(self, Z) -> "ProductionNeighbourhood":
-        """``Z``: the log's parts in time order, DoE-standardized."""
+        """``Z``: the log's parts in time order, DoE-standardized; or only its :meth:`kept_rows` (the same fit)."""
         Z = np.asarray(Z, float)
-        rows = training_subset(len(Z), self.max_rows, self.seed)  # in time order: the blocks stay periods
+        rows = self.kept_rows(len(Z))
         self.parts_ = Z[rows]
         block = np.arange(len(rows)) * self.n_blocks // max(len(rows), 1)
         others = np.empty(len(rows))

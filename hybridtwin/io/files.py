@@ -307,6 +307,15 @@ def read_checked(path, columns=None) -> pd.DataFrame:
     return pd.read_csv(path, keep_default_na=False, na_values=[""], usecols=None if columns is None else list(columns))
 
 
+def column_names(path) -> list[str]:
+    """The columns of a table the workflow wrote (CSV or Parquet), read from its header or schema alone."""
+    if Path(path).suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        return list(pq.read_schema(path).names)
+    return list(pd.read_csv(path, nrows=0).columns)
+
+
 def _read_parquet(path, columns=None) -> pd.DataFrame:
     import pyarrow.parquet as pq
 
