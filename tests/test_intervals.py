@@ -639,3 +639,41 @@ def test_a_blend_takes_the_members_of_non_zero_weight_whatever_their_weight():
     predictions = {"hybrid": np.array([1.0, 2.0]), "cokriging": np.array([10.0, 20.0])}  # no GP value needed
     blended = stack.blend({"hybrid": 1.0, "gp_discrepancy": 0.0, "cokriging": -0.2}, predictions, np.array([1]))
     assert blended.tolist() == pytest.approx([2.0 - 4.0])
+
+
+def test_the_answers_read_only_their_columns_of_the_step_files_with_the_same_calibration(tmp_path):
+    from hybridtwin import pipeline
+
+    table, inputs, truth = _predictions_table()
+    # columns of the steps' files that the answers never read: they are left on disk
+    unread = pd.DataFrame({"row": np.arange(len(table)), "pred_hybrid": 0.0, "residual_approx": 1.0})
+    hybrid, extension = tmp_path / "hybrid.parquet", tmp_path / "extension.parquet"
+    extended = ["pred_extended_oof", "pred_extended_hybrid_oof"]
+    pd.concat([unread, table.drop(columns=extended)], axis=1).to_parquet(hybrid)
+    table[extended].assign(pred_extended=0.0).to_parquet(extension)
+    peer = tmp_path / "peer.parquet"
+    honest_peer = table["measured"] + np.random.default_rng(3).normal(0, 0.7, len(table))
+    pd.DataFrame({"pred_gp_discrepancy": 0.0, "pred_gp_discrepancy_oof": honest_peer}).to_parquet(peer)
+    table["pred_gp_discrepancy_oof"] = honest_peer
+    read = pipeline.read_predictions(hybrid, extension, [peer], intervals.answer_columns())
+    assert sorted(read.columns) == sorted(table.columns)
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": 8}
+    expected = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0, truth=truth).table
+    got = coverage.calibrate(read, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0, truth=truth).table
+    pd.testing.assert_frame_equal(got, expected)
+
+
+def test_the_production_reach_standardizes_only_the_parts_it_keeps_with_the_same_fit():
+    from hybridtwin import pipeline
+    from hybridtwin.answers.novelty import ProductionNeighbourhood
+    from hybridtwin.paper.gate import KNNSupportGate
+
+    rng = np.random.default_rng(5)
+    doe = pd.DataFrame(rng.normal(size=(40, 3)), columns=["a", "b", "c"])
+    log = pd.DataFrame(rng.normal(size=(6000, 3)) * [1, 2, 3], columns=["a", "b", "c"])
+    gate = KNNSupportGate().fit(doe)
+    spec = pipeline.Spec(inputs=("a", "b", "c"), seed=7)
+    reach = pipeline.production_reach(log, gate, spec, n_blocks=10)
+    whole = ProductionNeighbourhood(n_blocks=10, seed=7).fit(gate.standardizer_.transform(log))
+    assert len(reach.parts_) == 2000 < len(log)
+    assert np.array_equal(reach.parts_, whole.parts_) and reach.threshold_ == whole.threshold_
