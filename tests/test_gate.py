@@ -228,3 +228,20 @@ def test_approximate_residuals_are_measured_less_the_surrogate():
     np.testing.assert_allclose(frame["residual_approx"], [3.0, -2.0])
     np.testing.assert_allclose(frame["pred_surrogate_std"], [0.5, 0.5])
     assert list(frame.columns) == ["measured", "pred_surrogate", "pred_surrogate_std", "residual_approx"]
+
+
+def test_gate_distances_of_a_long_table_are_found_in_parts_with_the_same_numbers(monkeypatch):
+    from hybridtwin.paper import gate as gate_module
+
+    rng = np.random.default_rng(4)
+    doe = pd.DataFrame(rng.normal(size=(30, 3)), columns=["a", "b", "c"])
+    parts = pd.DataFrame(rng.normal(size=(1001, 3)) * 2, columns=["a", "b", "c"])
+    fitted = KNNSupportGate(k=3).fit(doe)
+    whole = fitted.distance(parts)
+    Z = fitted.standardizer_.transform(parts)
+    exact = np.sort(np.linalg.norm(Z[:, None, :] - fitted.reference_[None], axis=2), axis=1)[:, :3].mean(axis=1)
+    np.testing.assert_allclose(whole, exact, rtol=0, atol=1e-9)
+    monkeypatch.setattr(gate_module, "DISTANCE_ROWS", 100)
+    np.testing.assert_array_equal(fitted.distance(parts), whole)
+    np.testing.assert_array_equal(fitted.distance(parts.to_numpy()), whole)
+    assert fitted.distance(parts.iloc[:0]).shape == (0,)

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hybridtwin.crossval import (
@@ -53,6 +54,13 @@ def test_gpr_predicts_a_large_table_in_chunks_with_the_same_numbers(doe30, monke
     np.testing.assert_allclose(chunked_mean, mean, rtol=0, atol=1e-12)
     np.testing.assert_allclose(chunked_std, std, rtol=0, atol=1e-12)
     np.testing.assert_allclose(model.predict(query), mean, rtol=0, atol=1e-12)
+    # a table (the workflow's production) is cut into the same chunks, each standardized on its own
+    monkeypatch.setattr(surrogate, "PREDICT_ROWS", 5000)
+    named = GPRSurrogate(n_restarts=0).fit(pd.DataFrame(X, columns=["a", "b", "c"]), y)
+    frame = pd.DataFrame(query, columns=["a", "b", "c"])
+    whole = named.predict(frame, return_std=True)
+    monkeypatch.setattr(surrogate, "PREDICT_ROWS", 64)
+    np.testing.assert_allclose(named.predict(frame, return_std=True), whole, rtol=0, atol=1e-12)
 
 
 def test_gpr_json_round_trip_and_determinism(doe30):

@@ -8,6 +8,8 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.neighbors import NearestNeighbors
 from sklearn.utils.validation import check_is_fitted
 
+DISTANCE_ROWS = 500_000  # rows whose distances to the DoE are found at once
+
 
 def nearest_index(reference, k: int) -> NearestNeighbors:
     """A k-nearest-neighbour index of ``reference`` (standardized inputs) by brute force: on a dozen inputs
@@ -123,9 +125,15 @@ class KNNSupportGate(BaseEstimator):
         return self
 
     def distance(self, X) -> np.ndarray:
+        """Each row's mean distance to its k nearest DoE points, DISTANCE_ROWS rows at a time (standardized inputs,
+        neighbours' distances and indices of ten million rows held at once took 2.5 GB)."""
         check_is_fitted(self, "threshold_")
-        distances, _ = self._index.kneighbors(self.standardizer_.transform(X))
-        return distances.mean(axis=1)
+        rows = X.iloc if hasattr(X, "iloc") else np.asarray(X)
+        means = [
+            self._index.kneighbors(self.standardizer_.transform(rows[start : start + DISTANCE_ROWS]))[0].mean(axis=1)
+            for start in range(0, len(X), DISTANCE_ROWS)
+        ]
+        return np.concatenate(means) if means else np.empty(0)
 
     def predict(self, X) -> np.ndarray:
         return self.within(self.distance(X))

@@ -83,13 +83,15 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X, return_std: bool = False):
-        """In chunks of PREDICT_ROWS rows: the kernel's (rows x DoE runs) temporaries stay small on a large log."""
+        """In chunks of PREDICT_ROWS rows, each standardized on its own: the kernel's (rows x DoE runs) temporaries
+        and the standardized inputs stay small on a large log (ten million rows standardized whole took 2 GB)."""
         check_is_fitted(self, "gpr_")
-        Z = self.standardizer_.transform(X)
-        if len(Z) <= PREDICT_ROWS:
-            return self.gpr_.predict(Z, return_std=return_std)
+        if len(X) <= PREDICT_ROWS:
+            return self.gpr_.predict(self.standardizer_.transform(X), return_std=return_std)
+        rows = X.iloc if hasattr(X, "iloc") else np.asarray(X)
         parts = [
-            self.gpr_.predict(Z[s : s + PREDICT_ROWS], return_std=return_std) for s in range(0, len(Z), PREDICT_ROWS)
+            self.gpr_.predict(self.standardizer_.transform(rows[s : s + PREDICT_ROWS]), return_std=return_std)
+            for s in range(0, len(X), PREDICT_ROWS)
         ]
         if return_std:
             return np.concatenate([mean for mean, _ in parts]), np.concatenate([std for _, std in parts])
