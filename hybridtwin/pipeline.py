@@ -116,6 +116,7 @@ def residual_cv(production, residual_table, spec: Spec, training: str, params: d
     from hybridtwin.paper.residual import evaluation_seed, make_model
 
     rows, X, y = _training(production, residual_table, spec, training)
+    del production  # its matrix X is all the CV reads of it (1 GB on ten million parts)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
     periods = period_folds(len(y), spec.folds)
     per_period, oof = cross_validate(model, X, y, spec.folds, spec.seed, splits=periods)

@@ -15,6 +15,7 @@ from hybridtwin.crossval import (
     folds,
     splice_out_of_fold,
     splits_of,
+    training_subset,
     written_splits,
 )
 from hybridtwin.paper import residual
@@ -112,6 +113,8 @@ def test_cross_validation_reports_the_rows_a_capped_model_trained_on():
     assert per_fold["n_train"].tolist() == [12] * 4 and per_fold["n_test"].sum() == n
     for model, (train, test) in zip(FITTED, folds(n, 4, seed=3)):
         assert model.seen_ < set(train.tolist()) and model.predicted_ == set(test.tolist())
+        # the sample the capped model draws of its fold's rows, whether it is given them all or only the sample
+        assert model.seen_ == set(train[training_subset(len(train), 12, 0)].tolist())
     says(capped_note(12, 30), "sample", "at most 12")
     assert capped_note(12, 12) == "" and capped_note(None, 10**6) == ""
 

@@ -45,8 +45,13 @@ class RowCapped(RegressorMixin, BaseEstimator):
         self.max_rows = max_rows
         self.seed = seed
 
+    def fit_rows(self, n_rows: int) -> np.ndarray:
+        """The positions of the rows a fit on ``n_rows`` rows uses (a caller may hand over only these: the same
+        fit, without a copy of every row)."""
+        return training_subset(n_rows, self.max_rows, self.seed)
+
     def fit(self, X, y):
-        rows = training_subset(len(y), self.max_rows, self.seed)
+        rows = self.fit_rows(len(y))
         sample = X.iloc[rows] if hasattr(X, "iloc") else np.asarray(X)[rows]
         self.estimator_ = clone(self.estimator).fit(sample, np.asarray(y, float)[rows])
         self.n_fitted_ = len(rows)
