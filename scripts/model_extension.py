@@ -22,7 +22,9 @@ def main(snakemake):
     # the inputs and the causes' columns: on a long log, not every column of it
     columns = [*spec.inputs, *sorted(extension.DiscrepancyExtension(terms).columns - set(spec.inputs))]
     parts = pipeline.extension_parts(
-        read_checked(snakemake.input.production, columns), residuals, read_checked(snakemake.input.hybrid)
+        read_checked(snakemake.input.production, columns),
+        residuals,
+        read_checked(snakemake.input.hybrid, pipeline.HYBRID_FOR_EXTENSION),
     )
     # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(parts.inside))

@@ -285,17 +285,19 @@ def write_table(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORM
         write_csv(frame, path, float_format)
         return
     digits = _significant_digits(float_format)
-    if digits is not None:
-        floats = [name for name in frame.columns if pd.api.types.is_float_dtype(frame[name].dtype)]
-        frame = frame.assign(**{name: rounded_to_significant(frame[name].to_numpy(float), digits) for name in floats})
+    floats = [name for name in frame.columns if pd.api.types.is_float_dtype(frame[name].dtype)]
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     schema = pa.Schema.from_pandas(frame, preserve_index=False)
     with atomic_path(path) as temporary, pq.ParquetWriter(temporary, schema) as writer:
-        # ROWS_PER_CHUNK rows at a time (a row group each): Arrow's copy of a chunk, not of the whole table
+        # ROWS_PER_CHUNK rows at a time (a row group each), rounded as they go: Arrow's copy and the rounded values
+        # of a chunk, not of the whole table
         for start in range(0, len(frame), ROWS_PER_CHUNK):
             chunk = frame.iloc[start : start + ROWS_PER_CHUNK]
+            if digits is not None:
+                rounded = {name: rounded_to_significant(chunk[name].to_numpy(float), digits) for name in floats}
+                chunk = chunk.assign(**rounded)
             writer.write_table(pa.Table.from_pandas(chunk, schema=schema, preserve_index=False))
 
 
