@@ -78,13 +78,18 @@ def residuals(surrogate_model, production: pd.DataFrame, spec: Spec, inside) -> 
     return table
 
 
-def _training(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec, training: str):
+def _training(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec, training: str, sample=None):
+    """The rows a residual model trains on, their inputs as a matrix and their residuals. ``sample(n)``: the
+    positions among those rows that a row-capped model fits on (``RowCapped.fit_rows``), taken before the matrix
+    is made: a final fit on ten million parts holds half a million of them, not every one."""
     from hybridtwin.paper.residual import training_rows
 
     rows = training_rows(residual_table["in_support"], training)
-    X = production[list(spec.inputs)].to_numpy(float)
-    if len(rows) < len(X):  # with every row the matrix itself: a log of millions of parts is not copied twice
-        X = X[rows]
+    if sample is not None:
+        rows = rows[sample(len(rows))]
+    inputs = production[list(spec.inputs)]
+    # with every row the matrix itself: a log of millions of parts is not copied twice
+    X = inputs.to_numpy(float) if len(rows) == len(inputs) else inputs.iloc[rows].to_numpy(float)
     return rows, X, residual_table["residual_approx"].to_numpy(float)[rows]
 
 
@@ -92,8 +97,8 @@ def residual_model(production, residual_table, spec: Spec, training: str, params
     """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all)."""
     from hybridtwin.paper.residual import make_model
 
-    _, X, y = _training(production, residual_table, spec, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
+    _, X, y = _training(production, residual_table, spec, training, getattr(model, "fit_rows", None))
     return model.fit(X, y)
 
 
