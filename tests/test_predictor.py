@@ -81,6 +81,14 @@ def test_a_typical_setting_is_validated_with_its_interval(predictor):
     says(answered["trust_reason"], "validated", "within the support's")
 
 
+def test_a_simulated_setting_the_plant_never_ran_is_an_extrapolation_with_no_interval(predictor):
+    # both shims at 0.02 mm: inside the support and every DoE range, far from every logged part (0.43 mm and up)
+    answered = predictor.predict(pd.DataFrame([{**predictor.typical, "shim20_mm": 0.02, "shim21_mm": 0.02}])).iloc[0]
+    assert answered["in_support"] and answered["trust"] == trust.EXTRAPOLATION
+    assert np.isnan(answered["pred_lower"]) and np.isnan(answered["pred_upper"])
+    says(answered["trust_reason"], "unlike every logged production part", "the simulations back it", "no interval")
+
+
 def test_without_the_causes_column_the_extension_is_passed_by(predictor, parts):
     lacking = parts.drop(columns=["stroke_counter"])
     every = predictor.predict(lacking, all_models=True)

@@ -61,3 +61,19 @@ def test_no_calibration_part_out_of_the_support_means_every_part_there_is_an_ext
     assert reach.max_distance is None and reach.beyond == {"t": (0.0, 0.0)}
     verdict, _ = trust.verdicts(np.array([True, False]), pd.DataFrame({"t": [0.0, 0.0]}), np.array([0.5, 1.5]), reach)
     assert verdict.tolist() == ["validated", "extrapolation"]  # no interval was ever checked out of the support
+
+
+def test_a_setting_unlike_every_logged_part_is_an_extrapolation_in_the_validated_domain_too():
+    from dataclasses import replace
+
+    reach = replace(REACH, novelty=1.5)
+    rows = [(True, 0.9, 0.0, 0.0), (True, 0.9, 0.0, 0.0), (False, 2.0, 0.0, 0.0), (False, 2.0, 0.0, 0.0)]
+    inside, distance, t, T = map(np.array, zip(*rows))
+    frame = pd.DataFrame({"t": t, "T": T})
+    novelty = np.array([1.5, 1.51, 1.5, 1.51])  # at the log's own largest novelty, and a hair beyond it
+    verdict, reason = trust.verdicts(inside.astype(bool), frame, distance.astype(float), reach, novelty)
+    assert verdict.tolist() == ["validated", "extrapolation", "calibrated", "extrapolation"]
+    # the simulations back the first: the correction of them was never learnt from a part like it
+    says(reason[1], "unlike every logged production part", "1.51", "1.5", "the simulations back it", "no interval")
+    says(reason[3], "unlike every logged production part", "the plant was never seen here", "no interval")
+    assert "simulations back it" not in reason[3]

@@ -182,11 +182,8 @@ class Predictor:
         outside_range = (beyond != 0).any(axis=1).to_numpy()
         region = regions.Regions.of(inside, outside_range, distance, self.intervals.edges, self.intervals.beyond_region)
         novelty = None
-        if self.neighbourhood is not None:  # the validated domain needs none: computed for the other rows only
-            novelty = np.zeros(len(X))
-            other = ~(inside & ~outside_range)
-            if other.any():
-                novelty[other] = self.neighbourhood.distance(self.gate.standardizer_.transform(X[other]))
+        if self.neighbourhood is not None:  # inside the support too: the residual models learnt only where parts were
+            novelty = self.neighbourhood.distance(self.gate.standardizer_.transform(X)) if len(X) else np.zeros(0)
         verdict, reason = trust.verdicts(inside, beyond, distance, self.reach, novelty)
         return answer.Where(distance, inside, beyond, region, verdict, reason, self.doe_range)
 

@@ -1,12 +1,13 @@
 """How far to trust an answer: a plain verdict per row, and the reason in words.
 
-- ``validated``: in the support and inside every DoE range: the simulations back the setting, and the
-  residual models learnt from production parts like it;
+- ``validated``: in the support and inside every DoE range, and like the logged production: the simulations back
+  the setting, and the residual models learnt from production parts like it;
 - ``calibrated``: outside the support (or beyond a DoE range inside the gate), but no further from the
   simulations than production parts whose errors calibrated the interval: the interval was checked there;
 - ``extrapolation``: further than every calibrated part, or beyond a DoE range by more than the calibrated
-  parts were, or (outside the validated domain) unlike every logged production part as no period of the log was
-  unlike the rest (:mod:`.novelty`). Nothing checked an interval there: the answer has none (``pred_lower``,
+  parts were, or unlike every logged production part as no period of the log was unlike the rest
+  (:mod:`.novelty`; inside the support too, where the simulations back the setting but the correction of them
+  was never learnt). Nothing checked an interval there: the answer has none (``pred_lower``,
   ``pred_upper`` empty), and the reason names the input and how far it lies beyond the simulations.
 """
 
@@ -68,7 +69,9 @@ def _levels(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=No
     in_range = ~(amounts != 0).any(axis=1)
     novel = np.zeros(len(distance), bool)
     if novelty is not None and reach.novelty is not None:
-        novel = ~(inside & in_range) & (np.asarray(novelty, float) > reach.novelty)
+        # in the validated domain as well: the simulations back such a setting, but the residual models, which
+        # correct them, never learnt from a part like it
+        novel = np.asarray(novelty, float) > reach.novelty
     trust = np.where(
         past_reach.any(axis=1) | too_far | novel, EXTRAPOLATION, np.where(inside & in_range, VALIDATED, CALIBRATED)
     ).astype(object)
@@ -94,15 +97,19 @@ def verdicts(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=N
     reason[rows] = _extrapolated(found.past_reach[rows], amounts[rows], distance[rows], reach)
     only_novel = found.novel & ~found.past_reach.any(axis=1) & ~found.too_far
     if only_novel.any():
-        reason[only_novel] = _novel(np.asarray(novelty, float)[only_novel], reach)
+        simulated = (inside & ~(amounts != 0).any(axis=1))[only_novel]
+        reason[only_novel] = _novel(np.asarray(novelty, float)[only_novel], simulated, reach)
     return trust, reason
 
 
-def _novel(novelty, reach: Reach) -> np.ndarray:
+def _novel(novelty, simulated, reach: Reach) -> np.ndarray:
+    """``simulated``: in the support and every DoE range (the simulations back the setting)."""
+    seen = np.where(simulated, "the simulations back it, but ", "").astype(object)
     return (
         "settings unlike every logged production part (distance "
         + _numbers(novelty)
         + f" to the nearest, where no period of the log lay further than {reach.novelty:.3g} from the rest): "
+        + seen
         + "the plant was never seen here, no interval"
     )
 
