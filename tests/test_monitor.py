@@ -239,7 +239,16 @@ def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
     far = watched.table["trust"].to_numpy() == "extrapolation"
     assert far[200:].all() and not far[:200].any() and watched.table["expected_error"][far].isna().all()
     assert watched.chart.alarm_at is None and watched.judged.sum() == 200
-    says(words.summary(watched), "in control", "200 parts judged", "200 parts were not judged")
+    says(words.summary(watched), "in control", "200 parts judged of 400", "200 of the 400 parts (50%) were not judged")
+
+
+def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predictor, parts):
+    batch = parts.iloc[:50].copy()
+    batch["shim21_mm"] += 0.3  # every part far beyond the log
+    watched = watch.watch(predictor, batch)
+    assert watched.judged.sum() == 0 and watched.chart.alarm_at is None
+    says(words.summary(watched), "nothing judged", "none of the 50 parts", "50 of the 50 parts (100%) were not judged")
+    assert "in control" not in words.summary(watched)
 
 
 def test_a_step_alarms_soon_after_it_starts_and_is_unexplained(stepped):

@@ -18,10 +18,13 @@ RERUN = (
 def headline(watched) -> str:
     chart, n = watched.chart, len(watched.table)
     judged = int(watched.judged.sum())
+    if chart.alarm_at is None and not judged:
+        return f"nothing judged: none of the {n:,} parts could be compared with the models (see below)"
     if chart.alarm_at is None:
+        # the parts not judged are not vouched for: the summary says how many and why
         return (
-            f"in control: the {n:,} parts behave as the models expect (statistic at most "
-            f"{float(chart.statistic.max()) if n else 0.0:.1f}, limit {chart.limit:g}; {judged:,} parts judged)"
+            f"in control: the {judged:,} parts judged of {n:,} behave as the models expect (statistic at most "
+            f"{float(chart.statistic.max()):.1f}, limit {chart.limit:g})"
         )
     side = "more" if chart.direction > 0 else "less"
     which = f", the chart {chart.alarmed_by}" if chart.alarmed_by else ""
@@ -36,9 +39,12 @@ def unjudged(watched) -> str:
     skipped = len(watched.table) - int(watched.judged.sum())
     if not skipped:
         return ""
+    share = skipped / len(watched.table)
     return (
-        f"{skipped:,} parts were not judged: their settings are unlike every logged part (trust 'extrapolation'), "
-        "so the models expect no error there"
+        f"{skipped:,} of the {len(watched.table):,} parts ({share:.0%}) were not judged: their trust is "
+        "'extrapolation' (further than every part that calibrated the models' in-control error, beyond a DoE range "
+        "by more than those parts were, or unlike every logged part), so the models give no error to compare "
+        "them with; `hybridtwin predict` on them says why for each"
     )
 
 
