@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 
 from hybridtwin.io.config import default
@@ -33,7 +34,7 @@ def _common(command: argparse.ArgumentParser) -> None:
         "--set", action="append", default=[], metavar="NAME=VALUE", help="an input's value (repeat for more)"
     )
     command.add_argument("--base", metavar="FILE.csv", help="take the inputs not set from a row of this CSV")
-    command.add_argument("--base-row", type=int, default=1, metavar="N", help="that row, from 1 (default: 1)")
+    command.add_argument("--base-row", type=int, metavar="N", help="that row, from 1 (default: 1)")
     command.add_argument(
         "--all-models", action="store_true", help="add every model's prediction and the regions' bookkeeping"
     )
@@ -92,11 +93,18 @@ def question(args, predictor, fmt: CsvFormat, varied: dict | None = None):
         if args.set or args.base:
             raise InputError("give a CSV file of settings, or --set / --base for one question: not both")
         return predictor.read(args.csv, fmt)
-    values = {**whatif.pairs(args.set, predictor.inputs), **(varied or {})}
+    values = whatif.pairs(args.set, predictor.inputs)
+    both = sorted(set(values) & set(varied or {}))
+    if both:
+        raise InputError(f"--set {both[0]} and --vary {both[0]}: the sweep varies it; leave out the --set")
+    values.update(varied or {})
+    if args.base_row is not None and not args.base:
+        raise InputError("--base-row without --base: give the CSV the row is taken from with --base FILE.csv")
     if args.base:
         table = predictor.read(args.base, fmt)
-        base = whatif.base_row(table, args.base_row, predictor.inputs, f"--base {args.base!r}")
-        return whatif.filled(values, predictor.inputs, base, f"{args.base} row {args.base_row}")
+        row = args.base_row or 1
+        base = whatif.base_row(table, row, predictor.inputs, f"--base {args.base!r}")
+        return whatif.filled(values, predictor.inputs, base, f"{args.base} row {row}")
     if not values and args.command == "predict":
         raise InputError(
             "nothing asked: give a CSV file of settings, or --set NAME=VALUE (the inputs not set take typical "
@@ -109,6 +117,7 @@ def run(args) -> None:
     from hybridtwin.answers import answer
     from hybridtwin.answers.predictor import Predictor
 
+    _not_over_an_input(args)
     predictor = Predictor.load(args.models)
     fmt = _format(args, predictor)
     if args.command == "monitor":
@@ -129,6 +138,16 @@ def run(args) -> None:
     else:
         varied = (name,) if args.command == "sweep" else ()
         print(answer.on_screen(answers, predictor.inputs, predictor.spec["unit"], varied=varied))
+
+
+def _not_over_an_input(args) -> None:
+    """Your files are only read: an output named as an input file is refused."""
+    from pathlib import Path
+
+    output = getattr(args, "output", None)
+    for given in (getattr(args, "csv", None), getattr(args, "base", None), getattr(args, "batch", None)):
+        if output and given and Path(output).resolve() == Path(given).resolve():
+            raise InputError(f"-o {output!r} is the input file {given!r}: write the answers to another file")
 
 
 def _plot(predictor, answers, name: str, path: str) -> None:
@@ -165,6 +184,9 @@ def main(argv=None) -> int:
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # the screen's reader stopped early (| head): not an error of the answer
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's own advice, so exit flushes quietly
+        return 0
     return 0
 
 

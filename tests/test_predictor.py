@@ -142,14 +142,41 @@ def test_base_takes_the_other_inputs_from_a_row_of_the_users_own(tmp_path, parts
         (["--set", "rm_mpa=1.234,5"], ["'1.234,5' is not a number"]),
         ([], ["nothing asked", "--set NAME=VALUE"]),
         (["--base", "nowhere.csv"], ["nowhere.csv", "does not exist"]),
+        (["--set", "cushion_c1_kn=1,000"], ["'1,000' is ambiguous", "write 1000 or 1.000"]),
+        (["--set", "die_temp_c=60", "--set", "die_temp_c=70"], ["die_temp_c is given twice"]),
+        (["--set", "die_temp_c=60", "--base-row", "3"], ["--base-row without --base"]),
+        (["sweep", "--vary", "die_temp_c=20:80:4", "--set", "die_temp_c=30"], ["the sweep varies it"]),
+        (["sweep", "--vary", "die_temp_c=80:20:4"], ["LOW (80) must be below HIGH (20)"]),
+        (["sweep", "--vary", "die_temp_c=20:80:1"], ["N (1) must be between 2 and 10000"]),
     ],
-    ids=["typo", "digit-grouping", "nothing", "base-missing"],
+    ids=[
+        "typo",
+        "digit-grouping",
+        "nothing",
+        "base-missing",
+        "comma-thousand",
+        "twice",
+        "base-row",
+        "set-varied",
+        "reversed",
+        "one-value",
+    ],
 )
 def test_the_commands_mistakes_get_one_line(capsys, argv, words):
-    assert main(["predict", "--models", MODELS, *argv]) == 1
+    command, argv = (argv[:1], argv[1:]) if argv[:1] == ["sweep"] else (["predict"], argv)
+    assert main([*command, "--models", MODELS, *argv]) == 1
     error = capsys.readouterr().err.strip()
     assert error.startswith("error: ") and "\n" not in error
     says(error, *words)
+
+
+def test_an_output_named_as_the_input_file_is_refused_and_the_file_kept(capsys, tmp_path, parts):
+    path = tmp_path / "settings.csv"
+    parts.head(3).to_csv(path, index=False)
+    before = path.read_bytes()
+    assert main(["predict", "--models", MODELS, str(path), "-o", str(path)]) == 1
+    says(capsys.readouterr().err, "is the input file", "another file")
+    assert path.read_bytes() == before
 
 
 def test_help_names_the_separators(capsys):

@@ -22,6 +22,11 @@ SWEEP = re.compile(r"^(?P<name>[^=]+)=(?P<low>[^:]+):(?P<high>[^:]+):(?P<n>\d+)$
 def number(text: str, where: str) -> float:
     """A value typed by a person: '0.75' or '0,75'; not '1.234,5' (digit grouping) nor '0.7mm'."""
     value = text.strip()
+    if re.fullmatch(r"[-+]?[1-9]\d{0,2},\d{3}", value):  # a decimal comma, or digit grouping: not to be guessed
+        raise InputError(
+            f"{where}: {text!r} is ambiguous: a thousand with digit grouping, or {value.replace(',', '.')}? "
+            f"write {value.replace(',', '')} or {value.replace(',', '.')}"
+        )
     if value.count(",") == 1 and "." not in value:
         value = value.replace(",", ".")
     try:
@@ -52,6 +57,8 @@ def pairs(settings: list[str], inputs) -> dict[str, float]:
         if not sep or not name.strip():
             raise InputError(f"--set {pair!r}: write NAME=VALUE, for example --set {list(inputs)[0]}=1.0")
         name = known_name(name, inputs, f"--set {pair!r}:")
+        if name in values:
+            raise InputError(f"--set {name} is given twice; give each input once")
         values[name] = number(value, f"--set {pair!r}")
     return values
 
@@ -77,8 +84,10 @@ def sweep_values(text: str, inputs) -> tuple[str, np.ndarray]:
     name = known_name(match["name"], inputs, f"--vary {text!r}:")
     low, high = number(match["low"], f"--vary {text!r}"), number(match["high"], f"--vary {text!r}")
     n = int(match["n"])
-    if n < 2 or n > 10_000 or not high > low:
-        raise InputError(f"--vary {text!r}: LOW must be below HIGH and N between 2 and 10000")
+    if not high > low:
+        raise InputError(f"--vary {text!r}: LOW ({low:g}) must be below HIGH ({high:g})")
+    if n < 2 or n > 10_000:
+        raise InputError(f"--vary {text!r}: N ({n}) must be between 2 and 10000")
     return name, np.linspace(low, high, n)
 
 
