@@ -256,6 +256,7 @@ def test_a_step_alarms_soon_after_it_starts_and_is_unexplained(stepped):
     assert stepped.table["change_start"].iloc[-1] == stepped.chart.start_at + 1
     assert stepped.change.kind == UNEXPLAINED and stepped.change.shift == pytest.approx(7.2, abs=1.5)
     says(words.summary(stepped), "ALARM at part", "more than the models expect", "unexplained", "append the batch")
+    assert "what changed: unexplained: a shift of" in words.summary(stepped)  # the kind said once
 
 
 def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not():

@@ -115,6 +115,15 @@ def test_the_api_checks_a_table_as_the_command_does(predictor, parts, cell, word
     says(str(caught.value), "no rows")
 
 
+def test_the_api_refuses_a_doubled_column_and_a_table_that_is_not_one(predictor, parts):
+    with pytest.raises(InputError) as caught:
+        predictor.predict(pd.concat([parts.head(3), parts.head(3)[["die_temp_c"]]], axis=1))
+    says(str(caught.value), "'die_temp_c' twice")
+    with pytest.raises(InputError) as caught:
+        predictor.predict(dict(predictor.typical))
+    says(str(caught.value), "must be a pandas table", "not dict")
+
+
 def test_set_alone_fills_typical_production_and_says_which(capsys, tmp_path):
     out = tmp_path / "one.csv"
     assert main(["predict", "--models", MODELS, "--set", "die_temp_c=30", "-o", str(out)]) == 0

@@ -151,6 +151,13 @@ class Predictor:
     def checked(self, frame: pd.DataFrame, where: str = "the what-if table") -> pd.DataFrame:
         """The inputs of ``frame`` as numbers, with the workflow's checks: a missing column, text, an empty or an
         infinite cell stops with one line naming the column and the row; so does a table with no rows."""
+        if not isinstance(frame, pd.DataFrame):
+            raise InputError(
+                f"{where} must be a pandas table (DataFrame) of the input columns, not {type(frame).__name__}"
+            )
+        doubled = sorted({str(name) for name in frame.columns[frame.columns.duplicated()]})
+        if doubled:
+            raise InputError(f"{where} has the column {', '.join(map(repr, doubled))} twice; every column once")
         data.require_inputs(frame, self.inputs, where)
         if frame.empty:
             raise InputError(f"{where} has no rows: nothing to predict")

@@ -133,7 +133,7 @@ def _calibrated(inside, amounts, distance, reach: Reach) -> np.ndarray:
     text = where + _numbers(distance) + side + f"{reach.threshold:.3g})"
     beyond = (amounts != 0).any(axis=1)
     text[beyond] = text[beyond] + "; " + _beyond(amounts[beyond], _worst_input(amounts[beyond], reach), reach)
-    furthest = f" (up to {reach.max_distance:.3g})" if reach.max_distance is not None else ""
+    furthest = f" (kNN distance up to {reach.max_distance:.3g})" if reach.max_distance is not None else ""
     return text + "; production parts this far calibrated the interval" + furthest
 
 
