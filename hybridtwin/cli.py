@@ -154,7 +154,9 @@ def _plot(predictor, answers, name: str, path: str) -> None:
     from hybridtwin.io import files
     from hybridtwin.report import plots
 
-    figure = plots.sweep(answers, name, predictor.doe_range[name], predictor.spec["target"], predictor.spec["unit"])
+    spec = predictor.spec
+    unit = spec.get("units", {}).get(name, "")
+    figure = plots.sweep(answers, name, predictor.doe_range[name], spec["target"], spec["unit"], unit)
     files.save_figure(figure, path)
 
 

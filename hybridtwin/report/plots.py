@@ -263,9 +263,12 @@ def enrichment_map(doe, production, inside, proposals, seed: int = 0):
     return figure
 
 
-def cause_sweeps(sweeps: list, n_causes: int, n_figures: int, doe_range: dict, target: str, unit: str) -> list:
+def cause_sweeps(
+    sweeps: list, n_causes: int, n_figures: int, doe_range: dict, target: str, unit: str, input_units=None
+) -> list:
     """One figure per rank (``n_figures`` of them): the sweep along the rank-th named cause (``sweeps``, from
-    :func:`hybridtwin.pipeline.cause_sweeps`: (column, answers), or None for an id), or why there is none."""
+    :func:`hybridtwin.pipeline.cause_sweeps`: (column, answers), or None for an id), or why there is none;
+    ``input_units``: each input's unit, for the x axis."""
     figures = []
     for rank in range(1, n_figures + 1):
         shown = sweeps[rank - 1] if rank <= len(sweeps) else None
@@ -274,17 +277,18 @@ def cause_sweeps(sweeps: list, n_causes: int, n_figures: int, doe_range: dict, t
             figures.append(placeholder(why))
             continue
         column, answers = shown
-        figures.append(sweep(answers, column, doe_range.get(column, (float("nan"), float("nan"))), target, unit))
+        span = doe_range.get(column, (float("nan"), float("nan")))
+        figures.append(sweep(answers, column, span, target, unit, (input_units or {}).get(column, "")))
     return figures
 
 
 TRUST_COLORS = {"validated": "#2a9d3f", "calibrated": "#e08a1e", "extrapolation": "#c8302c"}
 
 
-def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit: str):
-    """The answer along one input: the recommended prediction with its interval (where one was calibrated), the
-    paper's gated hybrid and the surrogate as lines, the DoE's range shaded, the in-support stretch marked and
-    each value's trust verdict as the marker's colour."""
+def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit: str, input_unit: str = ""):
+    """The answer along one input (in ``input_unit``): the recommended prediction with its interval (where one was
+    calibrated), the paper's gated hybrid and the surrogate as lines, the DoE's range shaded, the in-support
+    stretch marked and each value's trust verdict as the marker's colour."""
     from hybridtwin.models.registry import HYBRID_GATED, RECOMMENDED_COLUMN, SURROGATE
 
     x = answers[name].to_numpy(float)
@@ -293,7 +297,8 @@ def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit:
     lower, upper = answers["pred_lower"].to_numpy(float), answers["pred_upper"].to_numpy(float)
     level = float(answers["interval_level"].iloc[0])
     axis.fill_between(x, lower, upper, where=np.isfinite(lower), color="C0", alpha=0.2, label=f"{level:.0%} interval")
-    axis.plot(x, answers[SURROGATE.column], color="0.4", lw=1, ls=":", label="surrogate (simulations)")
+    # the surrogate drawn over the gated hybrid: outside the support the two are the same line
+    axis.plot(x, answers[SURROGATE.column], color="0.3", lw=1.2, ls=":", label="surrogate (simulations)", zorder=2.5)
     axis.plot(x, answers[HYBRID_GATED.column], color="C1", lw=1, ls="--", label="paper's gated hybrid")
     recommended = answers[RECOMMENDED_COLUMN].to_numpy(float)
     axis.plot(x, recommended, color="C0", lw=1.5, label="recommended model")
@@ -305,7 +310,8 @@ def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit:
     if inside.any():
         axis.scatter(x[inside], np.full(inside.sum(), 0.02), s=8, marker="s", color="k",
                      transform=axis.get_xaxis_transform(), label="in the support")  # fmt: skip
-    axis.set(xlabel=name, ylabel=f"{target} [{unit}]", title=f"{target} along {name}, the other inputs held")
+    xlabel = f"{name} [{input_unit}]" if input_unit else name
+    axis.set(xlabel=xlabel, ylabel=f"{target} [{unit}]", title=f"{target} along {name}, the other inputs held")
     axis.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     figure.tight_layout()
     return figure
