@@ -213,6 +213,17 @@ def test_a_sweep_writes_a_row_per_value_and_its_figure(tmp_path):
     assert figure.stat().st_size > 10_000
 
 
+def test_a_sweep_figure_names_the_inputs_unit(predictor):
+    from hybridtwin.answers import whatif
+    from hybridtwin.report import plots
+
+    frame = whatif.sweep_frame(pd.DataFrame([predictor.typical]), "die_temp_c", np.linspace(10, 90, 5))
+    answers = predictor.predict(frame)
+    figure = plots.sweep(answers, "die_temp_c", predictor.doe_range["die_temp_c"], "draw_in_mm", "mm", "°C")
+    assert figure.axes[0].get_xlabel() == "die_temp_c [°C]"
+    assert plots.sweep(answers, "die_temp_c", (20, 50), "draw_in_mm", "mm").axes[0].get_xlabel() == "die_temp_c"
+
+
 def test_a_sweep_on_screen_shows_the_varied_input_and_why_rows_are_not_validated(capsys):
     assert main(["sweep", "--models", MODELS, "--vary", "die_temp_c=10:90:3"]) == 0
     shown = capsys.readouterr().out

@@ -137,12 +137,13 @@ def test_a_sweep_figure_per_rank_or_why_there_is_none(monkeypatch):
     from hybridtwin.report import plots
 
     drawn, said = [], []
-    monkeypatch.setattr(plots, "sweep", lambda answers, name, doe_range, *_: drawn.append((name, doe_range)) or name)
+    monkeypatch.setattr(plots, "sweep", lambda answers, name, span, *rest: drawn.append((name, span, rest[-1])) or name)
     monkeypatch.setattr(plots, "placeholder", lambda text: said.append(text) or text)
     sweeps = [None, ("die_temp_c", pd.DataFrame())]  # cause 1 an id, cause 2 a column
-    figures = plots.cause_sweeps(sweeps, 2, 3, {"die_temp_c": (20.0, 50.0)}, "draw_in_mm", "mm")
+    units = {"die_temp_c": "°C"}
+    figures = plots.cause_sweeps(sweeps, 2, 3, {"die_temp_c": (20.0, 50.0)}, "draw_in_mm", "mm", units)
     assert figures == ["cause 1 is an id: no sweep can show it", "die_temp_c", "no cause 3"]
-    assert drawn == [("die_temp_c", (20.0, 50.0))] and len(said) == 2
+    assert drawn == [("die_temp_c", (20.0, 50.0), "°C")] and len(said) == 2
 
 
 def test_the_first_page_says_which_column_gave_way_to_an_id_by_chance():
