@@ -257,6 +257,9 @@ def test_a_step_alarms_soon_after_it_starts_and_is_unexplained(stepped):
     assert stepped.change.kind == UNEXPLAINED and stepped.change.shift == pytest.approx(7.2, abs=1.5)
     says(words.summary(stepped), "ALARM at part", "more than the models expect", "unexplained", "append the batch")
     assert "what changed: unexplained: a shift of" in words.summary(stepped)  # the kind said once
+    first, then = words.next_steps(stepped)  # look for the cause before the models learn it
+    says(first, f"find what changed at about part {stepped.change.start_part:,}", "no logged column explains it")
+    says(then, "append the batch", "once the plant keeps it")
 
 
 def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not():

@@ -79,7 +79,14 @@ def next_steps(watched) -> list[str]:
             f"{change.start_part:,} lie outside the support; simulate their typical setting ({shown}), add it "
             "to the DoE, and the rerun proposes more (results/enrichment/proposed_simulations.csv)"
         )
-    what = "the offset" if change.kind == UNEXPLAINED else "the change"
+    if change.kind == UNEXPLAINED:
+        # a shift no logged column explains may be a fault (a gauge, a worn insert): the models would learn it
+        steps.append(
+            f"find what changed at about part {change.start_part:,}: no logged column explains it (a gauge, a die "
+            "insert, a material lot or a setting that is not logged?); if it is a fault, fix it rather than "
+            "teach it to the models"
+        )
+    what = "the offset, once the plant keeps it" if change.kind == UNEXPLAINED else "the change"
     steps.append(
         f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
         f"models learn {what}: the rules that rerun are {RERUN}"
