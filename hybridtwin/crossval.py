@@ -17,6 +17,11 @@ def lowest_on_periods(held_out: list[np.ndarray], y) -> tuple[list[float], int]:
     return errors, int(np.argmin(errors))
 
 
+def rows_of(X, rows):
+    """``rows`` (positions or a slice) of a table or an array, as the same kind."""
+    return X.iloc[rows] if hasattr(X, "iloc") else np.asarray(X)[rows]
+
+
 def training_subset(n_rows: int, size: int, seed: int) -> np.ndarray:
     """Seeded subset of row positions (all rows when there are fewer), in order."""
     if n_rows <= size:
@@ -70,7 +75,7 @@ def in_support_out_of_period(model, inside, training_rows: np.ndarray, n_folds: 
     refitted without the training parts of its period, the ``n_folds`` periods the hybrid's CV uses."""
     period = periods(len(inside), n_folds)
     rows = np.arange(len(inside)) if rows is None else np.asarray(rows)
-    asked = inside.iloc[rows] if hasattr(inside, "iloc") else np.asarray(inside)[rows]
+    asked = rows_of(inside, rows)
     return model.out_of_period(asked, period[rows], period[np.asarray(training_rows)])
 
 

@@ -256,7 +256,8 @@ def test_a_step_alarms_soon_after_it_starts_and_is_unexplained(stepped):
     assert stepped.table["change_start"].iloc[-1] == stepped.chart.start_at + 1
     assert stepped.change.kind == UNEXPLAINED and stepped.change.shift == pytest.approx(7.2, abs=1.5)
     says(words.summary(stepped), "ALARM at part", "more than the models expect", "unexplained", "append the batch")
-    assert "what changed: unexplained: a shift of" in words.summary(stepped)  # the kind said once
+    assert "what changed (unexplained): a shift of" in words.summary(stepped)  # the kind said once
+    assert "unexplained: unexplained" not in words.markdown(stepped, "batch.csv")
     first, then = words.next_steps(stepped)  # look for the cause before the models learn it
     says(first, f"find what changed at about part {stepped.change.start_part:,}", "no logged column explains it")
     says(then, "append the batch", "once the plant keeps it")

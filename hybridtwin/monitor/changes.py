@@ -291,7 +291,7 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
             text = f"a change with {column}: since part {at + 1:,} ({frame[column].iloc[at]}) the parts sit "
             return NEW, column, text + f"{shift:+.1f} {unit} off"
     during = f" (it began during the {gap:,} parts before, which were not judged)" if gap >= BOUNDARY else ""
-    text = f"unexplained: a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
+    text = f"a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
     return UNEXPLAINED, None, text + " that explains it"
 
 

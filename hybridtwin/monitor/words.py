@@ -99,10 +99,8 @@ def summary(watched) -> str:
     lines = [headline(watched)]
     if watched.change is not None:
         change = watched.change
-        # an unexplained change's text says so itself
-        kind = "" if change.text.startswith(f"{change.kind}:") else f" ({change.kind})"
         lines.append(
-            f"what changed{kind}: {change.text}; the residual moved by {change.shift:+.2f} "
+            f"what changed ({change.kind}): {change.text}; the residual moved by {change.shift:+.2f} "
             f"{watched.unit} over the {change.n_after:,} parts judged since part {change.start_part:,}"
         )
     lines += [note for note in [unjudged(watched), short_log(watched)] if note]

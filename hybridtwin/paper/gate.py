@@ -8,6 +8,8 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.neighbors import NearestNeighbors
 from sklearn.utils.validation import check_is_fitted
 
+from hybridtwin.crossval import rows_of
+
 DISTANCE_ROWS = 500_000  # rows whose distances to the DoE are found at once
 
 
@@ -128,10 +130,9 @@ class KNNSupportGate(BaseEstimator):
         """Each row's mean distance to its k nearest DoE points, DISTANCE_ROWS rows at a time (standardized inputs,
         neighbours' distances and indices of ten million rows held at once took 2.5 GB)."""
         check_is_fitted(self, "threshold_")
-        rows = X.iloc if hasattr(X, "iloc") else np.asarray(X)
         means = [
-            self._index.kneighbors(self.standardizer_.transform(rows[start : start + DISTANCE_ROWS]))[0].mean(axis=1)
-            for start in range(0, len(X), DISTANCE_ROWS)
+            self._index.kneighbors(self.standardizer_.transform(rows_of(X, slice(s, s + DISTANCE_ROWS))))[0].mean(1)
+            for s in range(0, len(X), DISTANCE_ROWS)
         ]
         return np.concatenate(means) if means else np.empty(0)
 

@@ -10,7 +10,7 @@ import pandas as pd
 import xgboost as xgb
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
-from hybridtwin.crossval import training_subset
+from hybridtwin.crossval import rows_of, training_subset
 from hybridtwin.models.registry import SURROGATE
 
 log = logging.getLogger(__name__)
@@ -52,8 +52,7 @@ class RowCapped(RegressorMixin, BaseEstimator):
 
     def fit(self, X, y):
         rows = self.fit_rows(len(y))
-        sample = X.iloc[rows] if hasattr(X, "iloc") else np.asarray(X)[rows]
-        self.estimator_ = clone(self.estimator).fit(sample, np.asarray(y, float)[rows])
+        self.estimator_ = clone(self.estimator).fit(rows_of(X, rows), np.asarray(y, float)[rows])
         self.n_fitted_ = len(rows)
         return self
 
