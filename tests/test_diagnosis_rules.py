@@ -772,3 +772,26 @@ def test_a_column_is_judged_against_the_best_of_the_columns_the_id_holds():
     p_strength = ids.level_chance_p(strength, group, y, candidates, seed=0, alpha=0.01)
     p_thickness = ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01)
     assert p_strength == pytest.approx(1 / 200) and p_thickness > 0.02  # 0.035: not at alpha 0.01
+
+
+def test_a_long_level_holds_one_draw_of_its_offset_as_a_short_one_does():
+    # three long lots and fifteen short ones; the offsets follow the strength's saturation and a thickness step
+    counts = np.array([500, 300, 300] + [10, 20, 30, 40, 15] * 3)
+    rng = np.random.default_rng(3)
+    lot = np.repeat(np.arange(len(counts)), counts)
+    strength, thickness = rng.uniform(200, 230, len(counts)), rng.uniform(0.66, 0.74, len(counts))
+    offsets = 4 * np.tanh((strength - 215) / 3) + np.where(thickness > 0.7, 3.0, -3.0)
+    y = offsets[lot] + rng.normal(0, 1.5, len(lot))
+    candidates = [
+        Candidate.new("lot", "group", np.array([f"L{k:02d}" for k in lot]), ("lot",)),
+        Candidate.new("strength", "input", strength[lot], ("strength",)),
+        Candidate.new("thickness", "input", thickness[lot], ("thickness",)),
+    ]
+    # weighted by parts, the three long lots outweigh the rest (p 0.38); each a draw of its offset, p 1/200
+    assert ids.level_chance_p(candidates[1], candidates[0], y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
+    weights = ids.level_mean_weights(lot, counts, y)
+    assert weights[0] / weights[-1] < 1.2  # 500 parts against 15: the offsets' variance dominates both
+    # without offsets of their own, a level's mean weighs as its parts
+    flat = rng.normal(0, 1.0, len(lot))
+    weights = ids.level_mean_weights(lot, counts, flat)
+    assert weights[0] / weights[3] == pytest.approx(50, rel=0.3)

@@ -258,6 +258,22 @@ def min_levels(alpha: float) -> int:
     return next(n for n in range(2, 20) if math.factorial(n) / 2 * alpha > 1)
 
 
+def level_mean_weights(codes: np.ndarray, counts: np.ndarray, y) -> np.ndarray:
+    """The inverse variance of each level's mean of ``y`` where every level has an offset of its own: the offsets'
+    variance (the one-way ANOVA's moment estimate, none if negative) plus the parts' variance within a level over
+    the level's parts. A level of 500 parts holds one draw of its offset, as a level of 20 does: weighted by parts,
+    three long lots of eighteen outweighed the rest and a yield strength that fitted every lot's mean came out as
+    chance (structures draw 40114, p 0.015 by parts, 0.005 so)."""
+    y = np.asarray(y, float)
+    n, n_levels = len(y), len(counts)
+    means = np.bincount(codes, weights=y) / counts
+    within = float(np.sum((y - means[codes]) ** 2)) / max(n - n_levels, 1)
+    between = float(np.sum(counts * (means - y.mean()) ** 2)) / max(n_levels - 1, 1)
+    per_level = (n - np.sum(counts**2) / n) / max(n_levels - 1, 1)  # the parts a level "has" in the moment estimate
+    offsets = max(0.0, (between - within) / per_level)
+    return 1.0 / (offsets + within / counts + 1e-300)
+
+
 def level_chance_p(
     column: Candidate, group: Candidate, y, candidates: list[Candidate], seed: int, alpha: float
 ) -> float | None:
@@ -275,9 +291,10 @@ def level_chance_p(
     if column.name not in {c.name for c in held} or len(counts) < min_levels(alpha):
         return None
     means = np.bincount(codes, weights=np.asarray(y, float)) / counts
+    weights = level_mean_weights(codes, counts, y)
     level_values = {c.name: np.bincount(codes, weights=np.asarray(c.values, float)) / counts for c in held}
-    observed = level_fit_shares(level_values[column.name][None, :], means, counts.astype(float))[0]
+    observed = level_fit_shares(level_values[column.name][None, :], means, weights)[0]
     rng = np.random.default_rng(seed)
     orders = np.array([rng.permutation(len(means)) for _ in range(LEVEL_SHUFFLES)])
-    shuffled = np.max([level_fit_shares(x[orders], means, counts.astype(float)) for x in level_values.values()], axis=0)
+    shuffled = np.max([level_fit_shares(x[orders], means, weights) for x in level_values.values()], axis=0)
     return float((1 + np.sum(shuffled >= observed - 1e-12)) / (1 + LEVEL_SHUFFLES))
