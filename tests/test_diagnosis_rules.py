@@ -795,3 +795,23 @@ def test_a_long_level_holds_one_draw_of_its_offset_as_a_short_one_does():
     flat = rng.normal(0, 1.0, len(lot))
     weights = ids.level_mean_weights(lot, counts, flat)
     assert weights[0] / weights[3] == pytest.approx(50, rel=0.3)
+
+
+def _standing_coil(y, frame, min_effect: float):
+    """The selection on a per-coil plant, its coil's fit: the id that stands, whatever the other rules say."""
+    candidates, _ = diagnosis.build_candidates(frame, ["thickness", "strength", "die_temp"], [], SETTINGS)
+    rules = fitting.Rules(SETTINGS, n_tests=len(candidates), min_effect=min_effect)
+    selection = Selection(y - y.mean(), candidates, rules, rules.fit_all(candidates, y - y.mean()))
+    return selection, selection.conditional["coil"]
+
+
+def test_a_column_the_id_holds_goes_before_it_where_it_fits_the_level_means_beyond_chance():
+    frame, y = _per_coil_plant(5, true_effect=True)
+    selection, coil = _standing_coil(y, frame, min_effect=0.3)
+    assert selection._held_cause(coil).candidate.name == "thickness"  # its evidence: the 14 coils
+    # ... and its effect must pass the margin
+    assert _standing_coil(y, frame, min_effect=10.0)[0]._held_cause(coil) is None
+    # random coil offsets that the thickness follows loosely: no held column beyond chance
+    frame, y = _per_coil_plant(5, true_effect=False)
+    selection, coil = _standing_coil(y, frame, min_effect=0.3)
+    assert selection._held_cause(coil) is None
