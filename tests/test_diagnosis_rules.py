@@ -815,3 +815,26 @@ def test_a_column_the_id_holds_goes_before_it_where_it_fits_the_level_means_beyo
     frame, y = _per_coil_plant(5, true_effect=False)
     selection, coil = _standing_coil(y, frame, min_effect=0.3)
     assert selection._held_cause(coil) is None
+
+
+def _ranked(name: str, kind: str, score: float) -> fitting.Fit:
+    return dataclasses.replace(_scored(name, kind, 0.5), score=score)
+
+
+def test_a_product_that_is_no_interaction_leaves_its_column_to_compete_with_the_others(monkeypatch):
+    # the product ranks first but is named as its column; the ambient, alone, predicts better than that column
+    product, die_temp = _ranked("die_temp*cushion", "interaction", -30.0), _ranked("die_temp", "input", -20.0)
+    ambient = _ranked("ambient", "input", -25.0)
+    pool = [product, die_temp, ambient]
+    selection = Selection(
+        np.zeros(20), [f.candidate for f in pool], Lenient(SETTINGS), {f.candidate.name: f for f in pool}
+    )
+    monkeypatch.setattr(Selection, "_named", lambda self, best, pool: die_temp if best is product else best)
+    assert selection._next_smooth(pool) is ambient
+    # a product that is one (named as itself) is not second-guessed
+    monkeypatch.setattr(Selection, "_named", lambda self, best, pool: best)
+    assert selection._next_smooth(pool) is product
+    # nor is its column where that column is the strongest of the columns
+    weaker = _ranked("ambient", "input", -10.0)
+    monkeypatch.setattr(Selection, "_named", lambda self, best, pool: die_temp if best is product else best)
+    assert selection._next_smooth([product, die_temp, weaker]) is die_temp

@@ -161,14 +161,23 @@ class Selection:
         significant = [fit for fit in pool if self.rules.significant(fit)]
         if not significant:
             return None
-        best = prefer_simpler(
-            min(significant, key=lambda fit: (self.rules.strength(fit), fit.candidate.name)),
-            pool,
-            self.remaining,
-            self.rules,
-        )
-        best = product_or_column(best, {c.name: c for c in self.candidates}, self.remaining, self.rules)
-        return best if self.rules.significant(best) else None
+        strongest = min(significant, key=self._rank)
+        named = self._named(strongest, pool)
+        if strongest.candidate.kind == "interaction" and named.candidate.kind != "interaction":
+            # no interaction: its column competes with the other columns, as it would without the pair (a die
+            # temperature taken for its product with a cushion force, where the ambient predicted better alone)
+            columns = [fit for fit in significant if fit.candidate.kind != "interaction"]
+            named = self._named(min(columns + [named], key=self._rank), pool)
+        return named if self.rules.significant(named) else None
+
+    def _rank(self, fit: Fit) -> tuple[float, str]:
+        return self.rules.strength(fit), fit.candidate.name
+
+    def _named(self, best: Fit, pool: list[Fit]) -> Fit:
+        """What ``best`` is named as: the simplest column that predicts the same, a product only where it beats
+        its columns."""
+        simplest = prefer_simpler(best, pool, self.remaining, self.rules)
+        return product_or_column(simplest, {c.name: c for c in self.candidates}, self.remaining, self.rules)
 
     def _next_id(self, pool: list[Fit]) -> tuple[Fit | None, float]:
         """The best id whose offsets stand once the model inputs' surface and the smooth candidates are out
