@@ -204,7 +204,8 @@ def extension_parts(production, residual_table, hybrid_table):
     support, the final model outside; ``hybrid_table`` needs only the columns :data:`HYBRID_FOR_EXTENSION`)."""
     from hybridtwin.diagnosis.extension import Parts
 
-    return Parts(production, residual_table, hybrid_table[registry.HYBRID.oof_column].to_numpy(float))
+    (hybrid_column,) = HYBRID_FOR_EXTENSION
+    return Parts(production, residual_table, hybrid_table[hybrid_column].to_numpy(float))
 
 
 def extend(parts, terms, fitting, splits, choosing, matched=None):

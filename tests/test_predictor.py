@@ -1,6 +1,8 @@
 """The frozen predictor and the hybridtwin command, fast: questions to a tiny stored run (tests/data/models,
 made by tests/data/make_models.py; its extension names the stroke counter, a column the inputs do not hold)."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -231,3 +233,19 @@ def test_a_sweep_on_screen_shows_the_varied_input_and_why_rows_are_not_validated
     says(header, "row", "die_temp_c", "prediction", "trust")
     assert [row.split()[1] for row in rows] == ["10", "50", "90"]
     says(shown, "row 3: die_temp_c 90")  # the extrapolation's reason, numbered by its own row
+
+
+def test_a_reader_that_stops_early_is_no_error_of_the_answer():
+    # `hybridtwin ... | head -1` on an answer longer than the pipe holds: the rest unread is not a traceback
+    argv = ["predict", "--models", MODELS, "--set", "die_temp_c=30"]
+    long_answer = (
+        "import sys; from hybridtwin import cli; cli.run = lambda args: print('row\\n' * 10**6); "
+        f"sys.exit(cli.main({argv!r}))"
+    )
+    command = [sys.executable, "-c", long_answer]
+    with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as process:
+        first = process.stdout.readline()
+        process.stdout.close()  # the command's next write breaks the pipe
+        errors = process.stderr.read().decode()
+    assert first == b"row\n"
+    assert process.returncode == 0 and "Traceback" not in errors and "BrokenPipe" not in errors
