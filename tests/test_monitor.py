@@ -310,7 +310,7 @@ def test_the_command_writes_the_table_and_monitor_md_and_leaves_the_batch(tmp_pa
     [
         (lambda b: b.drop(columns="draw_in_mm"), ("no column 'draw_in_mm'", "cannot be monitored")),
         (lambda b: b.rename(columns={"draw_in_mm": "draw_in"}), ("did you mean 'draw_in'?", "cannot be monitored")),
-        (lambda b: b.drop(columns="rm_mpa"), ("no column 'rm_mpa'",)),
+        (lambda b: b.drop(columns="rm_mpa"), ("no column 'rm_mpa'", "that the models take as an input")),
         (lambda b: b.drop(columns="stroke_counter"), ("no column 'stroke_counter'", "extension")),
         (lambda b: b.iloc[[0, 2, 1, *range(3, 400)]], ("column 'timestamp', row 3 (line 4)", "time order")),
         (lambda b: b.assign(draw_in_mm=b["draw_in_mm"].where(b.index != 9)), ("'draw_in_mm'", "row 10 (line 11)")),
@@ -325,6 +325,7 @@ def test_bad_batches_stop_with_one_line(predictor, parts, tmp_path, capsys, chan
     assert main(["monitor", str(path), "--models", MODELS, "-o", str(tmp_path / "out.csv")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: batch file") and err.count("\n") == 1 and not (tmp_path / "out.csv").exists()
+    assert "config" not in err  # a user of the stored models has none
 
 
 @pytest.fixture(scope="module")

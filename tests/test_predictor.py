@@ -181,6 +181,15 @@ def test_the_commands_mistakes_get_one_line(capsys, argv, words):
     says(error, *words)
 
 
+def test_a_missing_input_is_named_as_one_the_models_take_not_as_a_config_key(capsys, tmp_path, parts):
+    path = tmp_path / "settings.csv"
+    parts.drop(columns="die_temp_c").head(3).to_csv(path, index=False)
+    assert main(["predict", "--models", MODELS, str(path)]) == 1
+    error = capsys.readouterr().err
+    says(error, "no column 'die_temp_c'", "that the models take as an input")
+    assert "config" not in error
+
+
 def test_an_output_named_as_the_input_file_is_refused_and_the_file_kept(capsys, tmp_path, parts):
     path = tmp_path / "settings.csv"
     parts.head(3).to_csv(path, index=False)

@@ -112,15 +112,19 @@ def load_matched(path, columns: Columns, fmt: CsvFormat = CsvFormat()) -> pd.Dat
     return _numeric_extras(matched, numeric, fmt)
 
 
+# why a table asked about must hold a column, in words for a user of the stored models (who has no config)
+MODEL_INPUT = "that the models take as an input"
+
+
 def require_inputs(frame: pd.DataFrame, inputs, where: str) -> None:
     """Stop when a table asked about lacks one of the models' inputs; name near misses."""
-    require_columns(frame, list(inputs), where, "columns.inputs (the models' inputs)")
+    require_columns(frame, list(inputs), where, MODEL_INPUT)
 
 
 def load_whatif(path, inputs, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     """Settings to ask the frozen models about: the configured inputs, any other columns kept."""
     inputs = list(inputs)
-    whatif = load_table(path, "what-if", inputs, fmt, {name: "columns.inputs" for name in inputs})
+    whatif = load_table(path, "what-if", inputs, fmt, MODEL_INPUT)
     return _numeric_extras(whatif, inputs, fmt)
 
 

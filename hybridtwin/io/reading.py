@@ -277,7 +277,7 @@ def numeric_column(
     tally = f" (this column has {', '.join(counts)})"
     if missing.iloc[row]:
         what = "an empty cell is missing (NaN)" if value == "" else f"value {value!r} is missing (NaN)"
-        hint = " — every configured column needs a number in every row: fill the gap or drop the row"
+        hint = " — this column needs a number in every row: fill the gap or drop the row"
     elif infinite.iloc[row]:
         what = f"value {value!r} is infinite"
         hint = " — a sensor or export fault? fix or drop the row"
@@ -296,7 +296,8 @@ def require_columns(
 ) -> None:
     """Stop when a configured column is absent; name near misses and a wrong separator.
 
-    ``config_key`` is the config entry naming the columns, or a mapping column -> entry.
+    ``config_key`` is the config entry naming the columns, or a mapping column -> entry; an entry that is not a
+    config key (``columns.*``) says in words why the column is needed (a what-if user has no config).
     """
     missing = [name for name in columns if name not in frame.columns]
     if not missing:
@@ -313,9 +314,13 @@ def require_columns(
             match = difflib.get_close_matches(name, present, n=1, cutoff=0.75)
             near = f" (did you mean {match[0]!r}?)" if match else ""
         groups.setdefault(key, []).append(f"{name!r}{near}")
-    absent = " and no column ".join(f"{', '.join(names)} named in config {key}" for key, names in groups.items())
+    absent = " and no column ".join(f"{', '.join(names)} {_needed_as(key)}" for key, names in groups.items())
     shown = ", ".join(map(repr, present[:30])) + (f", … ({len(present)} in all)" if len(present) > 30 else "")
     raise InputError(f"{where} has no column {absent}; its columns are: {shown}{_separator_hint(present, fmt)}")
+
+
+def _needed_as(key: str) -> str:
+    return f"named in config {key}" if key.startswith("columns") else key
 
 
 def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: str | dict) -> pd.DataFrame:

@@ -20,6 +20,7 @@ import pandas as pd
 
 from hybridtwin.answers import intervals
 from hybridtwin.answers.trust import EXTRAPOLATION
+from hybridtwin.io.data import MODEL_INPUT
 from hybridtwin.io.errors import InputError
 from hybridtwin.io.reading import CsvFormat, _numeric_extras, load_table, numeric_column, require_columns
 from hybridtwin.models.batches import available_cores
@@ -71,7 +72,7 @@ def load_batch(path, predictor, fmt: CsvFormat | None = None) -> pd.DataFrame:
     header = _header(path, fmt)
     if header and set(inputs) <= set(header) and target not in header:
         raise no_target(where, target, header)
-    batch = load_table(path, "batch", inputs, fmt, {name: "columns.inputs" for name in inputs})
+    batch = load_table(path, "batch", inputs, fmt, MODEL_INPUT)
     if target not in batch.columns:
         raise no_target(where, target, [str(name) for name in batch.columns])
     batch[target] = numeric_column(batch, target, where, fmt)
@@ -83,7 +84,7 @@ def load_batch(path, predictor, fmt: CsvFormat | None = None) -> pd.DataFrame:
 def check_columns(batch: pd.DataFrame, predictor, where: str) -> None:
     """The columns the extension's causes need (log columns such as a stroke counter) must be there too."""
     needed = sorted(predictor.extension.extension.columns - set(predictor.inputs))
-    require_columns(batch, needed, where, "the production log (a cause the models' extension uses)")
+    require_columns(batch, needed, where, "that the models' extension uses as a cause (a production log column)")
 
 
 def check_time_order(batch: pd.DataFrame, where: str) -> None:
