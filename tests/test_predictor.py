@@ -233,6 +233,12 @@ def test_a_sweep_figure_names_the_inputs_unit(predictor):
     figure = plots.sweep(answers, "die_temp_c", predictor.doe_range["die_temp_c"], "draw_in_mm", "mm", "°C")
     assert figure.axes[0].get_xlabel() == "die_temp_c [°C]"
     assert plots.sweep(answers, "die_temp_c", (20, 50), "draw_in_mm", "mm").axes[0].get_xlabel() == "die_temp_c"
+    # the recommended line is solid only where the answer is not an extrapolation, dashed beyond
+    lines = {line.get_label(): line.get_ydata() for line in figure.axes[0].get_lines()}
+    far = (answers["trust"] == trust.EXTRAPOLATION).to_numpy()
+    assert far.any() and not far.all()
+    assert np.isnan(lines["recommended model"][far]).all() and np.isfinite(lines["recommended model"][~far]).all()
+    assert np.isfinite(lines["recommended, extrapolation"][far]).all()
 
 
 def test_a_sweep_on_screen_shows_the_varied_input_and_why_rows_are_not_validated(capsys):

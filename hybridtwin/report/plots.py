@@ -289,6 +289,7 @@ def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit:
     """The answer along one input (in ``input_unit``): the recommended prediction with its interval (where one was
     calibrated), the paper's gated hybrid and the surrogate as lines, the DoE's range shaded, the in-support
     stretch marked and each value's trust verdict as the marker's colour."""
+    from hybridtwin.answers.trust import EXTRAPOLATION
     from hybridtwin.models.registry import HYBRID_GATED, RECOMMENDED_COLUMN, SURROGATE
 
     x = answers[name].to_numpy(float)
@@ -301,7 +302,13 @@ def sweep(answers, name: str, doe_range: tuple[float, float], target: str, unit:
     axis.plot(x, answers[SURROGATE.column], color="0.3", lw=1.2, ls=":", label="surrogate (simulations)", zorder=2.5)
     axis.plot(x, answers[HYBRID_GATED.column], color="C1", lw=1, ls="--", label="paper's gated hybrid")
     recommended = answers[RECOMMENDED_COLUMN].to_numpy(float)
-    axis.plot(x, recommended, color="C0", lw=1.5, label="recommended model")
+    # solid where an answer can be trusted, thin and dashed where it is an extrapolation (joined at the edges)
+    far = (answers["trust"] == EXTRAPOLATION).to_numpy()
+    near_far = far | np.convolve(far, [1, 1, 1], mode="same").astype(bool)
+    axis.plot(x, np.where(far, np.nan, recommended), color="C0", lw=1.5, label="recommended model")
+    if far.any():
+        axis.plot(x, np.where(near_far, recommended, np.nan), color="C0", lw=1, ls=(0, (4, 2)),
+                  label="recommended, extrapolation")  # fmt: skip
     for verdict, color in TRUST_COLORS.items():
         rows = (answers["trust"] == verdict).to_numpy()
         if rows.any():
