@@ -838,3 +838,22 @@ def test_a_product_that_is_no_interaction_leaves_its_column_to_compete_with_the_
     weaker = _ranked("ambient", "input", -10.0)
     monkeypatch.setattr(Selection, "_named", lambda self, best, pool: die_temp if best is product else best)
     assert selection._next_smooth([product, die_temp, weaker]) is die_temp
+
+
+def test_a_product_that_gives_way_on_refining_leaves_its_column_to_compete_with_the_others():
+    rng = np.random.default_rng(4)
+    die_temp, ambient = rng.normal(40, 5, 600), rng.normal(20, 3, 600)
+    candidates = [
+        Candidate.new("die_temp", "input", die_temp, ("die_temp",)),
+        Candidate.new("ambient", "input", ambient, ("ambient",)),
+    ]
+    rules = fitting.Rules(SETTINGS, n_tests=2)
+    selection = Selection(np.zeros(600), candidates, rules, {})
+    # what the other causes leave follows the ambient: the die temperature the product gave way to yields
+    rest = 0.5 * (ambient - 20) + rng.normal(0, 0.3, 600)
+    column = rules.best_fit(candidates[0], rest)
+    assert selection._strongest_column(column, rest).candidate.name == "ambient"
+    # ... and where it follows the die temperature, the column stays
+    rest = 0.3 * (die_temp - 40) + rng.normal(0, 0.3, 600)
+    column = rules.best_fit(candidates[0], rest)
+    assert selection._strongest_column(column, rest) is column

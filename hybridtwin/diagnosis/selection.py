@@ -283,8 +283,25 @@ class Selection:
         if not scored:
             return False
         self.no_interaction.add(self.chosen[j].candidate.name)
-        self.chosen[j] = max(scored, key=lambda item: (item[0], item[1].candidate.name))[1]
+        self.chosen[j] = self._strongest_column(
+            max(scored, key=lambda item: (item[0], item[1].candidate.name))[1], rest
+        )
         return True
+
+    def _strongest_column(self, column: Fit, rest: np.ndarray) -> Fit:
+        """The column a product gave way to, or another column that ranks ahead of it given the other causes
+        (``rest``), named as :meth:`_named` names it: the column competes as it would without the pair."""
+        others = [
+            c
+            for c in self.candidates
+            if c.kind in ("input", "log", "time") and c.name not in self.names | {column.candidate.name}
+        ]
+        rivals = [fit for fit in self.rules.fit_all(others, rest).values() if self.rules.significant(fit)]
+        strongest = min(rivals + [column], key=self._rank)
+        if strongest is column:
+            return column
+        named = prefer_simpler(strongest, rivals + [column], rest, self.rules)
+        return named if self.rules.significant(named) else column
 
 
 def smooth_first(best: Fit, named_id: Fit, accounted: float, by_chance=lambda: False) -> bool:
