@@ -88,6 +88,7 @@ def question(args, predictor, fmt: CsvFormat, varied: dict | None = None):
     """The settings asked about: a CSV of them, or one row from --set, --base and typical production
     (``varied``: a sweep's input, set by the sweep)."""
     from hybridtwin.answers import whatif
+    from hybridtwin.io import data
 
     if getattr(args, "csv", None):
         if args.set or args.base:
@@ -101,9 +102,8 @@ def question(args, predictor, fmt: CsvFormat, varied: dict | None = None):
     if args.base_row is not None and not args.base:
         raise InputError("--base-row without --base: give the CSV the row is taken from with --base FILE.csv")
     if args.base:
-        table = predictor.read(args.base, fmt)
         row = args.base_row or 1
-        base = whatif.base_row(table, row, predictor.inputs, f"--base {args.base!r}")
+        base = data.load_row(args.base, row, predictor.inputs, fmt)
         return whatif.filled(values, predictor.inputs, base, f"{args.base} row {row}")
     if not values and args.command == "predict":
         raise InputError(

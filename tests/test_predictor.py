@@ -264,3 +264,17 @@ def test_a_reader_that_stops_early_is_no_error_of_the_answer():
         errors = process.stderr.read().decode()
     assert first == b"row\n"
     assert process.returncode == 0 and "Traceback" not in errors and "BrokenPipe" not in errors
+
+
+def test_base_checks_only_the_row_asked_about(tmp_path, capsys):
+    text = (DATA / "production_head.csv").read_text().splitlines()
+    header = text[0].split(",")
+    cells = text[5].split(",")
+    cells[header.index("rm_mpa")] = "n/a"  # row 5 of the user's file has a text cell
+    path = tmp_path / "base.csv"
+    path.write_text("\n".join([*text[:5], ",".join(cells), *text[6:]]) + "\n")
+    assert main(["predict", "--models", MODELS, "--base", str(path), "--base-row", "3", "--set", "die_temp_c=30"]) == 0
+    assert main(["predict", "--models", MODELS, "--base", str(path), "--base-row", "5", "--set", "die_temp_c=30"]) == 1
+    says(capsys.readouterr().err, "base file", "'rm_mpa'", "row 5")
+    assert main(["predict", "--models", MODELS, "--base", str(path), "--base-row", "999"]) == 1
+    says(capsys.readouterr().err, "no row 999", "400 data row(s)")

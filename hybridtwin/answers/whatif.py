@@ -96,10 +96,3 @@ def sweep_frame(base: pd.DataFrame, name: str, values: np.ndarray) -> pd.DataFra
     frame = base.loc[base.index.repeat(len(values))].reset_index(drop=True)
     frame[name] = values
     return frame
-
-
-def base_row(frame: pd.DataFrame, row: int, inputs, where: str) -> dict[str, float]:
-    """Row ``row`` (from 1) of a table of the user's own: its inputs."""
-    if not 1 <= row <= len(frame):
-        raise InputError(f"{where}: no row {row}; it has {len(frame)} data row(s)")
-    return {name: float(frame[name].iloc[row - 1]) for name in inputs}

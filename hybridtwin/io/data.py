@@ -22,7 +22,16 @@ import pandas as pd
 
 from hybridtwin.io.errors import InputError
 from hybridtwin.io.files import read_checked
-from hybridtwin.io.reading import CsvFormat, _line, _numeric_extras, load_table, require_columns, warn
+from hybridtwin.io.reading import (
+    CsvFormat,
+    _line,
+    _numeric_extras,
+    load_table,
+    numeric_column,
+    read_csv,
+    require_columns,
+    warn,
+)
 
 
 @dataclass(frozen=True)
@@ -126,6 +135,18 @@ def load_whatif(path, inputs, fmt: CsvFormat = CsvFormat()) -> pd.DataFrame:
     inputs = list(inputs)
     whatif = load_table(path, "what-if", inputs, fmt, MODEL_INPUT)
     return _numeric_extras(whatif, inputs, fmt)
+
+
+def load_row(path, row: int, inputs, fmt: CsvFormat = CsvFormat()) -> dict[str, float]:
+    """Row ``row`` (from 1) of a table of the user's own: its inputs, checked in that row only (a blank or a
+    text cell elsewhere in the file is not the question's)."""
+    frame = read_csv(path, "base", fmt)
+    where = f"base file {str(path)!r}"
+    require_columns(frame, list(inputs), where, MODEL_INPUT, fmt)
+    if not 1 <= row <= len(frame):
+        raise InputError(f"{where}: no row {row}; it has {len(frame)} data row(s)")
+    asked = frame.iloc[[row - 1]]
+    return {name: float(numeric_column(asked, name, where, fmt).iloc[0]) for name in inputs}
 
 
 def range_report(reference: pd.DataFrame, frame: pd.DataFrame, inputs) -> pd.DataFrame:
