@@ -528,7 +528,7 @@ def test_cli_runs_from_a_fresh_shell_and_matches_the_api(run_dir, tmp_path):
 @pytest.mark.parametrize(
     "fault, expected",
     [
-        ("missing", ["what-if file", "no column 'rp02_mpa'", "columns.inputs"]),
+        ("missing", ["what-if file", "no column 'rp02_mpa'", "that the models take as an input"]),
         ("text", ["what-if file", "column 'die_temp_c'", "row 3 (line 4)", "'warm'", "not a number"]),
         (
             "decimal_comma",
