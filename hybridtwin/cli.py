@@ -154,8 +154,7 @@ def _plot(predictor, answers, name: str, path: str) -> None:
     from hybridtwin.io import files
     from hybridtwin.report import plots
 
-    spec = predictor.spec
-    unit = spec.get("units", {}).get(name, "")
+    spec, unit = predictor.spec, predictor.input_units.get(name, "")
     figure = plots.sweep(answers, name, predictor.doe_range[name], spec["target"], spec["unit"], unit)
     files.save_figure(figure, path)
 

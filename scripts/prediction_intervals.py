@@ -65,7 +65,7 @@ def main(snakemake):
         predictor.doe_range,
         spec.target,
         p.unit,
-        predictor.spec.get("units", {}),
+        predictor.input_units,
     )
     for figure, path in zip(figures, snakemake.output.sweeps):
         files.save_figure(figure, path)

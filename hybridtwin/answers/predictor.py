@@ -120,6 +120,11 @@ class Predictor:
         return {name: tuple(bounds) for name, bounds in self.spec["doe_range"].items()}
 
     @property
+    def input_units(self) -> dict[str, str]:
+        """Each input's unit ('' where the config gave none; none at all in models stored before units were)."""
+        return dict(self.spec.get("units", {}))
+
+    @property
     def typical(self) -> dict[str, float]:
         """Typical production: the median of the in-support parts, per input (and per numeric cause column)."""
         return dict(self.spec["typical"])
@@ -132,7 +137,7 @@ class Predictor:
             self.intervals.max_distance,
             {name: tuple(ranges[name]) for name in self.inputs},
             self.doe_range,
-            self.spec.get("units", {}),
+            self.input_units,
             None if self.neighbourhood is None else self.neighbourhood.threshold_,
         )
 
