@@ -168,8 +168,9 @@ def hybrid_predictions(production, residual_table, support_table, models: dict, 
 # ---------------------------------------------------------------- beyond the paper
 
 
-def diagnose(production, residual_table, spec: Spec, settings, surrogate_noise: float):
-    """The diagnosis of the in-support approximate residuals; ``settings``: :class:`diagnosis.Settings`."""
+def diagnose(production, residual_table, spec: Spec, settings, surrogate):
+    """The diagnosis of the in-support approximate residuals; ``settings``: :class:`diagnosis.Settings`;
+    ``surrogate``: the fitted :class:`~hybridtwin.paper.surrogate.GPRSurrogate` (its noise and its correlation)."""
     from hybridtwin import diagnosis
     from hybridtwin.paper.surrogate import surrogate_latent_std
 
@@ -180,7 +181,8 @@ def diagnose(production, residual_table, spec: Spec, settings, surrogate_noise: 
         list(spec.inputs),
         [spec.target],
         settings,
-        surrogate_std=surrogate_latent_std(residual_table.loc[inside, "pred_surrogate_std"], surrogate_noise),
+        surrogate_std=surrogate_latent_std(residual_table.loc[inside, "pred_surrogate_std"], surrogate.noise_std_),
+        input_correlation=surrogate.input_correlation,
     )
 
 

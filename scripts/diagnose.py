@@ -7,6 +7,7 @@ from hybridtwin.diagnosis import profiles
 from hybridtwin.io import files
 from hybridtwin.io.files import in_support
 from hybridtwin.io.runner import run, spec_of
+from hybridtwin.paper.surrogate import GPRSurrogate
 from hybridtwin.report import plots
 
 
@@ -16,8 +17,8 @@ def main(snakemake):
     settings = diagnosis.Settings.from_config(
         p.settings, folds=spec.folds, seed=spec.seed, unit=p.unit, n_jobs=spec.n_jobs, input_units=p.input_units
     )
-    noise = files.read_json(snakemake.input.surrogate)["noise_std"]
-    result = pipeline.diagnose(files.read_checked(snakemake.input.production), residuals, spec, settings, noise)
+    surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
+    result = pipeline.diagnose(files.read_checked(snakemake.input.production), residuals, spec, settings, surrogate)
     logging.info("offset %.3f; chosen causes: %s", result.offset, [f.candidate.name for f in result.selected])
     files.write_csv(result.table, snakemake.output.table)
     # the ranking may use a sample of the in-support parts: the report says so

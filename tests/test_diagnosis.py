@@ -15,6 +15,7 @@ from hybridtwin.crossval import (
 from hybridtwin.diagnosis import Candidate, Settings, forms, naming, selection
 from hybridtwin.diagnosis import fits as fitting
 from hybridtwin.diagnosis.causes import Cause, looks_like_timestamps, parse_timestamps
+from hybridtwin.diagnosis.ids import Proxy
 from hybridtwin.diagnosis.selection import Selection
 from hybridtwin.metrics import block_p_value
 from tests.test_diagnosis_rules import coil_plant, material_coils, warming_die
@@ -217,9 +218,10 @@ def test_the_summary_names_the_cause_an_id_stands_for():
     result = diagnosis.Diagnosis(
         0.0, 0.1, 3, 1.0, 0.2, 0.2, pd.DataFrame({"cause": [], "description": []}), None, {}, {}
     )
-    result.proxies = {"coil": (("the model inputs", "rm_mpa"), 0.8)}
+    result.proxies = {"coil": Proxy(False, ("the model inputs", "rm_mpa"), 0.8), "lot": Proxy(False, (), None, 0.4)}
     assert diagnosis.summary_dict(result)["proxies"] == {
-        "coil": {"accounted_by": ["the model inputs", "rm_mpa"], "share": 0.8}
+        "coil": {"accounted_by": ["the model inputs", "rm_mpa"], "share": 0.8, "own_p": None},
+        "lot": {"accounted_by": [], "share": None, "own_p": 0.4},
     }
     result.by_chance = {"thickness": ("coil", 18, 0.065)}
     assert diagnosis.summary_dict(result)["by_chance"] == {"thickness": {"id": "coil", "levels": 18, "p_value": 0.065}}
@@ -484,7 +486,7 @@ def test_an_id_not_named_says_what_accounts_for_its_offsets():
     frame, surface, _, rng = material_coils()
     y = surface + rng.normal(0, 0.5, len(frame))
     result = diagnosis.diagnose(frame, y, ["m1", "m2"], [], Settings(interactions=False), surrogate_std=1.0)
-    names, share = result.proxies["coil"]
+    share = result.proxies["coil"].share
     assert result.table.set_index("cause").loc["coil", "note"] == (
         "an id, not a cause: the model inputs (the surrogate's own error, or an effect of the inputs alone) "
         f"and m1 and m2 account for {share:.0%} of the differences between its levels (fitted on its other "

@@ -61,7 +61,7 @@ def test_coil_offsets_that_a_smooth_surface_of_the_inputs_gives_are_no_cause():
     y = surface + rng.normal(0, 0.5, len(frame))
     result = _diagnose(frame, y, surrogate_std=1.0, inputs=("m1", "m2"))
     assert result.selected == []  # neither column passes the margin alone, and the id is not named for them
-    names, share = result.proxies["coil"]
+    names, share = result.proxies["coil"].names, result.proxies["coil"].share
     # the surface and the inputs' own forms (each column a slope below the margin) account for the offsets
     assert names[0] == ids.INPUT_SURFACE and set(names[1:]) <= {"m1", "m2"} and share > 0.9
     row = result.table.set_index("cause").loc["coil"]
@@ -85,7 +85,7 @@ def test_several_smooth_quantities_below_the_margin_account_for_an_id_together()
     y = surface + 0.8 * (ambient - ambient.mean()) / ambient.std() + rng.normal(0, 0.5, len(frame))
     result = _diagnose(frame, y, surrogate_std=1.0, inputs=("m1", "m2"))
     assert "coil" not in [f.candidate.name for f in result.selected]
-    names, share = result.proxies["coil"]
+    names = result.proxies["coil"].names
     assert names[0] == ids.INPUT_SURFACE and "ambient_c" in names[1:] and set(names[1:]) <= {"ambient_c", "m1", "m2"}
 
 
@@ -353,7 +353,7 @@ def test_what_an_id_holds_beyond_the_surface_is_centred_and_its_share_is_what_th
     left = ids.unaccounted(group, y, candidates, [], rules)
     assert abs(left.mean()) < 1e-12
     # the coils' own offsets stay (their std 1.0 against the surface's 1.3): a share of the level differences
-    _, names, share = ids.id_stands(rules.best_fit(group, y), y, [*candidates, group], {}, rules)
+    _, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [*candidates, group], {}, rules)
     offsets = pd.Series(own[coil]).groupby(coil).mean()
     surface_by_coil = pd.Series(surface).groupby(coil).mean()
     expected = surface_by_coil.var() / (surface_by_coil.var() + offsets.var())
@@ -399,10 +399,10 @@ def test_an_id_that_stands_goes_after_the_causes_only_not_after_chance_candidate
     rules = fitting.Rules(SETTINGS, n_tests=200, min_effect=0.0)
     chance = rules.best_fit(Candidate.new("ambient", "log", ambient, ("ambient",)), y)
     chance = dataclasses.replace(chance, p_value=0.005)
-    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": chance}, rules)
+    stands, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": chance}, rules)
     assert stands and names == () and share < 0.05
     cause = dataclasses.replace(chance, p_value=1e-9)
-    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": cause}, rules)
+    stands, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [group], {"ambient": cause}, rules)
     assert stands and names == ("ambient",) and share > 0.2
     assert ids.smooth_accounts([chance], rules) == [chance] and ids.smooth_accounts([chance], rules, True) == []
     as_input = dataclasses.replace(cause, candidate=Candidate.new("ambient", "input", ambient, ("ambient",)))
@@ -423,7 +423,7 @@ def test_the_input_surface_is_shrunk_by_its_error_on_held_out_coils_not_on_rows(
     group = Candidate.new("coil", "group", np.array([f"C-{c:02d}" for c in coil]), ("coil",))
     rules = fitting.Rules(SETTINGS, n_tests=10, min_effect=0.3)
     oil_fit = rules.best_fit(Candidate.new("oil_film", "log", oil, ("oil_film",)), y)
-    stands, names, share = ids.id_stands(rules.best_fit(group, y), y, [*inputs, group], {"oil_film": oil_fit}, rules)
+    stands, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [*inputs, group], {"oil_film": oil_fit}, rules)
     assert names == (ids.INPUT_SURFACE, "oil_film")
     assert not stands and share > 0.9
     splits = ids.level_folds(group.values, SETTINGS.folds, SETTINGS.seed)
@@ -857,3 +857,55 @@ def test_a_product_that_gives_way_on_refining_leaves_its_column_to_compete_with_
     rest = 0.3 * (die_temp - 40) + rng.normal(0, 0.3, 600)
     column = rules.best_fit(candidates[0], rest)
     assert selection._strongest_column(column, rest) is column
+
+
+def _matern(X, factor):
+    """The simulator's correlation of these tests: Matern 5/2, unit length scales on the raw inputs."""
+    from sklearn.gaussian_process.kernels import Matern
+
+    return Matern(length_scale=np.full(X.shape[1], factor), nu=2.5)(X)
+
+
+def _levels_at(centres, scatter, rng, parts=150):
+    """Parts of one level per centre, their inputs scattered about it: (inputs, level labels)."""
+    X = np.vstack([c + rng.normal(0, scatter, (parts, len(c))) for c in centres])
+    return X, np.repeat([f"L{k:02d}" for k in range(len(centres))], parts)
+
+
+def _inputs(X):
+    return [Candidate.new(f"x{j + 1}", "input", X[:, j], (f"x{j + 1}",)) for j in range(X.shape[1])]
+
+
+def test_offsets_of_levels_at_near_equal_inputs_are_the_ids_own():
+    rng = np.random.default_rng(5)
+    X, labels = _levels_at(rng.normal(0, 0.05, (15, 2)), 0.02, rng)  # coils of one campaign
+    offsets = rng.normal(0, 1.0, 15)
+    y = offsets[np.unique(labels, return_inverse=True)[1]] + rng.normal(0, 0.3, len(X))
+    group = Candidate.new("coil", "group", labels, ("coil",))
+    assert ids.offsets_beyond_inputs_p(group, y, _inputs(X), _matern) < 0.01
+
+
+def test_offsets_of_levels_at_inputs_of_their_own_are_what_a_smooth_function_gives():
+    rng = np.random.default_rng(5)
+    X, labels = _levels_at(rng.uniform(-2, 2, (15, 2)), 0.05, rng)  # a lot per campaign
+    y = 3 * np.sin(1.5 * X[:, 0]) + X[:, 1] ** 2 + rng.normal(0, 0.3, len(X))
+    group = Candidate.new("lot", "group", labels, ("lot",))
+    assert ids.offsets_beyond_inputs_p(group, y, _inputs(X), _matern) > 0.1
+    assert ids.offsets_beyond_inputs_p(group, y, _inputs(X), None) is None
+
+
+def test_a_lot_per_campaign_is_not_named_for_a_discrepancy_of_the_inputs_alone():
+    rng = np.random.default_rng(7)
+    X, labels = _levels_at(rng.uniform(-2, 2, (16, 2)), 0.05, rng, parts=200)
+    x1, x2 = X.T
+    y = (x1**2 + x2 - 1.5) ** 2 + (x1 + x2**2 - 2) ** 2  # Himmelblau's valleys: no form of one column holds them
+    y = y - y.mean() + rng.normal(0, 0.5, len(X))
+    frame = pd.DataFrame({"x1": x1, "x2": x2, "lot": labels})
+    settings = Settings(folds=5, seed=0)
+    plain = diagnosis.diagnose(frame, y, ["x1", "x2"], [], settings, surrogate_std=0.05)
+    assert "lot" in [f.candidate.name for f in plain.selected]  # without the simulator's correlation
+    result = diagnosis.diagnose(frame, y, ["x1", "x2"], [], settings, surrogate_std=0.05, input_correlation=_matern)
+    assert "lot" not in [f.candidate.name for f in result.selected]
+    assert result.proxies["lot"].share is None and result.proxies["lot"].own_p >= 0.01
+    note = result.table.set_index("cause").loc["lot", "note"]
+    assert "ran at inputs of their own" in note

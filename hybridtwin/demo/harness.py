@@ -97,7 +97,7 @@ class Run:
         return self.residuals[registry.SURROGATE.column].to_numpy(float) + self.residual_model().predict(X)
 
     def diagnose(self, settings):
-        return pipeline.diagnose(self.production, self.residuals, self.spec, settings, self.surrogate.noise_std_)
+        return pipeline.diagnose(self.production, self.residuals, self.spec, settings, self.surrogate)
 
     @cached_property
     def choosing(self) -> np.ndarray:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -260,11 +261,14 @@ def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float
 @dataclass(frozen=True)
 class Rules:
     """What every step of the selection asks of a fit, fixed once per diagnosis: the settings, the number of
-    candidates tested (Bonferroni) and the least effect (the surrogate's own uncertainty times its margin)."""
+    candidates tested (Bonferroni) and the least effect (the surrogate's own uncertainty times its margin);
+    ``input_correlation``: the simulator's correlation between rows of the model inputs, and a length-scale factor
+    (:meth:`~hybridtwin.paper.surrogate.GPRSurrogate.input_correlation`), None without a surrogate."""
 
     settings: Settings
     n_tests: int = 1
     min_effect: float = 0.0
+    input_correlation: Callable[[np.ndarray, float], np.ndarray] | None = None
 
     def significant(self, fit: Fit) -> bool:
         return is_significant(fit, self.n_tests, self.settings, self.min_effect)

@@ -28,7 +28,7 @@ from hybridtwin.diagnosis.candidates import Candidate, build_candidates
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
-from hybridtwin.diagnosis.ids import held_columns, id_stands, level_chance_p
+from hybridtwin.diagnosis.ids import Proxy, held_columns, id_stands, level_chance_p
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
 from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE, SMOOTH_SHARE_OF_ID
 from hybridtwin.diagnosis.settings import Settings
@@ -51,7 +51,7 @@ class Diagnosis:
     selected: list[Fit] = field(default_factory=list)
     aliases: dict[str, list[str]] = field(default_factory=dict)
     explained_by: dict[str, str] = field(default_factory=dict)
-    proxies: dict[str, tuple[str, float]] = field(default_factory=dict)
+    proxies: dict[str, Proxy] = field(default_factory=dict)
     too_small: list[Fit] = field(default_factory=list)  # found by the test but within the surrogate's uncertainty
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
@@ -75,7 +75,7 @@ class Selection:
     chosen: list[Fit] = field(default_factory=list)
     remaining: np.ndarray | None = None
     conditional: dict[str, Fit] = field(default_factory=dict)
-    proxies: dict[str, tuple[tuple[str, ...], float]] = field(default_factory=dict)
+    proxies: dict[str, Proxy] = field(default_factory=dict)
     # products that gave way to one of their columns with the other causes in: no interaction, no candidate
     no_interaction: set[str] = field(default_factory=set)
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
@@ -188,10 +188,10 @@ class Selection:
         for fit in sorted(pool, key=lambda fit: (fit.score, fit.candidate.name)):
             if not self.rules.significant(fit):
                 continue
-            stands, names, share = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules)
-            if stands:
-                return fit, share
-            self.proxies[fit.candidate.name] = (names, share)
+            proxy = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules)
+            if proxy.stands:
+                return fit, proxy.share
+            self.proxies[fit.candidate.name] = proxy
         return None, 0.0
 
     def forward(self) -> None:
@@ -339,23 +339,21 @@ def _rows(frame: pd.DataFrame, residual, settings: Settings) -> tuple[pd.DataFra
     return frame.iloc[keep].reset_index(drop=True), residual[keep]
 
 
-def diagnose(
-    frame: pd.DataFrame, residual, inputs, exclude, settings: Settings, surrogate_std: float = 0.0
-) -> Diagnosis:
+def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std=0.0, input_correlation=None):
     """Rank candidate causes of ``residual`` (approximate residuals of in-support rows, in row order).
 
     ``frame`` holds those rows' production columns; ``exclude`` names columns that
     must not be candidates (the target). ``surrogate_std`` is the surrogate's own
     predictive uncertainty (noise excluded) on these rows: a cause's term must
     vary (standard deviation over the rows) by more than ``surrogate_margin``
-    times it, or it could be the surrogate's own error.
+    times it, or it could be the surrogate's own error. ``input_correlation``: :attr:`Rules.input_correlation`.
     """
     frame, residual = _rows(frame, residual, settings)
     offset = float(residual.mean())
     y = residual - offset
     blocks = block_means(residual, settings.n_blocks)
     candidates, skipped = build_candidates(frame, inputs, exclude, settings)
-    rules = Rules(settings, n_tests=len(candidates), min_effect=settings.surrogate_margin * surrogate_std)
+    rules = Rules(settings, len(candidates), settings.surrogate_margin * surrogate_std, input_correlation)
     selection = Selection(y, candidates, rules, rules.fit_all(candidates, y))
     selection.forward()
     if selection.refine():

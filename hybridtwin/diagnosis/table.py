@@ -11,7 +11,7 @@ import pandas as pd
 
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.fits import Rules, is_significant
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis
@@ -115,7 +115,9 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
     chosen = [s.candidate.name for s in found.chosen]
     alias_of = [cause for cause, names in found.aliases.items() if name in names]
     if name in found.proxies and name not in chosen:
-        names, share = found.proxies[name]
+        names, share, own_p = found.proxies[name][1:]
+        if share is None:
+            return "an id, not a cause: " + smooth_inputs_words(own_p)
         return (
             f"an id, not a cause: {accounted_words(names)} account for {share:.0%} of the differences between its "
             "levels (fitted on its other levels), and what is left is within what the surrogate's own error "
@@ -168,7 +170,8 @@ def summary_dict(result: Diagnosis) -> dict:
         "explained_by": result.explained_by,
         "skipped": result.skipped,
         "proxies": {
-            name: {"accounted_by": list(names), "share": share} for name, (names, share) in result.proxies.items()
+            name: {"accounted_by": list(proxy.names), "share": proxy.share, "own_p": proxy.own_p}
+            for name, proxy in result.proxies.items()
         },
         # columns an id holds whose form fitted its level means no better than chance: the id went first
         "by_chance": {

@@ -1,6 +1,7 @@
 """What accounts for an id's offsets, in words: light (no numpy), for the report's pages."""
 
 INPUT_SURFACE = "the model inputs"  # how the surface is named among what accounts for an id's offsets
+SMOOTH_INPUTS = "a smooth function of the model inputs"  # what takes up the offsets of levels at inputs of their own
 
 
 def accounted_words(names, code=str) -> str:
@@ -19,4 +20,13 @@ def by_chance_words(column: str, group: str, levels: int, p_value: float, code=s
     return (
         f"{code(column)} is constant within each level of {code(group)}: its form fits the offsets of the {levels} "
         f"levels no better than the columns {code(group)} holds fit them shuffled (p = {p_value:.2g})"
+    )
+
+
+def smooth_inputs_words(own_p: float) -> str:
+    """Why an id whose levels each ran at inputs of their own is not named, in words (``own_p``: the p-value of
+    offsets of its own beyond a smooth function of the inputs)."""
+    return (
+        f"its levels ran at inputs of their own, and {SMOOTH_INPUTS} takes up its offsets as well as it does "
+        f"(offsets of its own beyond that: p = {own_p:.2g}); levels run at the same settings would tell them apart"
     )

@@ -99,6 +99,13 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
             return np.concatenate([mean for mean, _ in parts]), np.concatenate([std for _, std in parts])
         return np.concatenate(parts)
 
+    def input_correlation(self, X, length_factor: float = 1.0) -> np.ndarray:
+        """The correlation of the simulator's response between the rows of ``X`` as the fitted kernel has it (its
+        Matern part, the amplitude and noise left out), with every length scale times ``length_factor``."""
+        check_is_fitted(self, "gpr_")
+        matern = self.gpr_.kernel_.k1.k2
+        return matern.clone_with_theta(matern.theta + np.log(length_factor))(self.standardizer_.transform(X))
+
     @property
     def noise_std_(self) -> float:
         """Learned noise (FE numerical scatter) in the target's unit."""

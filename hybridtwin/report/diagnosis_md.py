@@ -7,7 +7,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
 # the report's words for the gain table's columns
@@ -158,6 +158,9 @@ def _not_separated(summary: dict) -> list[str]:
                 "data (or a designed trial) is needed to decide."
             )
     for proxy, named in summary.get("proxies", {}).items():
+        if named["share"] is None:
+            notes.append(f"- {code(proxy)} is an id, not a cause: {smooth_inputs_words(named['own_p'])}.")
+            continue
         notes.append(
             f"- {code(proxy)} is an id, not a cause: it stands for whatever changes with it. "
             f"{accounted_words(named['accounted_by'], code)} account for {named['share']:.0%} of the differences "

@@ -12,7 +12,7 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words
+from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
 from hybridtwin.models import registry
 
 REGION_WORDS = {"in_support": "in the validated domain (in support)"}
@@ -59,6 +59,9 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
             f"{cause['explained_share']:.0%} of the residual's variance held out, p = {cause['p_value']:.1g})."
         )
     for proxy, named in diagnosis.get("proxies", {}).items():
+        if named.get("share") is None:
+            lines.append(f"  ``{proxy}`` is an id, not a cause: {smooth_inputs_words(named['own_p'])}.")
+            continue
         accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
     for column, held in diagnosis.get("by_chance", {}).items():
