@@ -187,9 +187,9 @@ def offsets_beyond_inputs_p(group: Candidate, y, inputs: list[Candidate], correl
     their own. A likelihood ratio tests that variance against none: half a chi2(1) at the boundary (Self and Liang).
     Levels that ran at near-equal inputs tell the two apart, since a smooth function cannot give them different
     offsets (coils of one campaign, their material within a few per cent of the DoE's range). Levels that each ran
-    at inputs of their own do not: the function takes up their offsets as well as the id does. On a bi-fidelity
-    function used as simulation and plant, a lot per campaign, the lots' offsets were named over a discrepancy of
-    the inputs alone on 13 of 22 plants (benchmarks/mf_diagnosis.py)."""
+    at inputs of their own do not: the function takes up their offsets as well as the id does. On bi-fidelity
+    functions used as simulation and plant, a lot per campaign, an id was named over a discrepancy of the inputs
+    alone on 24 of 33 plants, on 11 with this test (benchmarks/mf_diagnosis.py)."""
     if correlation is None or not inputs:
         return None
     codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
