@@ -136,7 +136,7 @@ def unaccounted(
     return left - left.mean()
 
 
-def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules):
+def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules, of_inputs=None):
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
     (held out by level), and spread more than the surrogate's own error gives between as many levels
     (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences.
@@ -156,7 +156,8 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
     limit = surrogate_spread(rules.min_effect * np.sqrt(per_level), len(np.unique(labels)), rules.settings.alpha)
     stands = bool(rules.significant(remainder) and remainder.effect_std > limit)
-    own_p = offsets_beyond_inputs_p(fit.candidate, y, inputs, rules.input_correlation) if stands else None
+    of_inputs = y if of_inputs is None else of_inputs
+    own_p = offsets_beyond_inputs_p(fit.candidate, of_inputs, inputs, rules.input_correlation) if stands else None
     if own_p is not None and own_p >= rules.settings.alpha:
         return Proxy(False, (SMOOTH_INPUTS,), None, own_p)
     if stands:  # what orders the causes: the surface and the corrected candidates

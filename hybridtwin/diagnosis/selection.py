@@ -188,11 +188,20 @@ class Selection:
         for fit in sorted(pool, key=lambda fit: (fit.score, fit.candidate.name)):
             if not self.rules.significant(fit):
                 continue
-            proxy = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules)
+            proxy = id_stands(fit, self.remaining, self.candidates, self.conditional, self.rules, self._of_inputs())
             if proxy.stands:
                 return fit, proxy.share
             self.proxies[fit.candidate.name] = proxy
         return None, 0.0
+
+    def _of_inputs(self) -> np.ndarray:
+        """What is left, with the chosen causes that are functions of the model inputs alone put back: whether an
+        id's offsets go beyond a smooth function of the inputs does not depend on how much of that function
+        closed forms have taken already (what they leave is rougher than the whole)."""
+        inputs = {c.name for c in self.candidates if c.kind == "input"}
+        of_inputs = [fit for fit in self.chosen if set(fit.candidate.columns) <= inputs]
+        terms = [fit.form.predict(fit.candidate.values) for fit in of_inputs]
+        return self.remaining + sum(terms, np.zeros(len(self.y)))
 
     def forward(self) -> None:
         """Forward selection, each step conditional on the causes already chosen."""
