@@ -909,3 +909,16 @@ def test_a_lot_per_campaign_is_not_named_for_a_discrepancy_of_the_inputs_alone()
     assert result.proxies["lot"].share is None and result.proxies["lot"].own_p >= 0.01
     note = result.table.set_index("cause").loc["lot", "note"]
     assert "ran at inputs of their own" in note
+
+
+def test_the_id_test_sees_the_chosen_forms_of_the_inputs_put_back_and_nothing_else():
+    rng = np.random.default_rng(9)
+    n = 400
+    x, strokes = rng.uniform(-1, 1, n), np.arange(n, dtype=float)
+    y = 2.0 * x**2 + strokes / n + rng.normal(0, 0.1, n)
+    columns = [Candidate.new("x", "input", x, ("x",)), Candidate.new("strokes", "log", strokes, ("strokes",))]
+    selection = Selection(y - y.mean(), columns, Lenient(SETTINGS), {})
+    selection.chosen = [best_fit(columns[0], y, SETTINGS), best_fit(columns[1], y, SETTINGS)]
+    selection.refit()
+    x_term = selection.chosen[0].form.predict(x)  # the stroke counter's term stays out
+    np.testing.assert_allclose(selection._of_inputs(), selection.remaining + x_term)
