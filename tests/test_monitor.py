@@ -328,6 +328,18 @@ def test_bad_batches_stop_with_one_line(predictor, parts, tmp_path, capsys, chan
     assert "config" not in err  # a user of the stored models has none
 
 
+def test_a_batch_whose_stroke_counter_goes_down_stops_where_the_log_never_saw_it_go_down(parts, tmp_path):
+    counted = Predictor.load(MODELS)
+    counted.spec["monitor"] = {**counted.spec.get("monitor", {}), "counters": ["stroke_counter"]}
+    path = tmp_path / "batch.csv"
+    parts.drop(columns="timestamp").iloc[::-1].to_csv(path, index=False)  # reversed, no timestamp to tell
+    with pytest.raises(InputError) as error:
+        watch.load_batch(path, counted)
+    says(str(error.value), "column 'stroke_counter', row 2 (line 3)", "time order", "reset")
+    assert len(watch.load_batch(path, Predictor.load(MODELS))) == len(parts)  # a log with no counter: no check
+    assert calibration.counters(parts) == ["stroke_counter"]
+
+
 @pytest.fixture(scope="module")
 def regime_predictor(parts):
     """The stored run with the regime charts' constants set on the head of its log (as prediction_intervals sets

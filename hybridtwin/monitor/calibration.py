@@ -129,6 +129,13 @@ def slopes(log, causes, residual, z, group) -> dict:
     return out
 
 
+def counters(log) -> list[str]:
+    """The log's number columns that never go down over it (a stroke counter): a batch's must not either."""
+    from hybridtwin.monitor.changes import clocks
+
+    return sorted(str(c) for c in clocks(log) if pd.api.types.is_numeric_dtype(log[c]))
+
+
 def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, causes=()) -> dict:
     """The ``monitor`` key of predictor.json from the prediction_intervals rule's calibration (its intervals,
     honest predictions and regions), the log's measured target, the production log itself (every column, in
@@ -144,6 +151,7 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
         "regimes": found.to_dict(),
         **fitted.to_dict(),
         "slopes": slopes(log, causes, residual, z, group),
+        "counters": counters(log),
         "limit": chart.LIMIT,
         "log_parts": int(usable.sum()),
         "log_rows": len(log),

@@ -78,7 +78,9 @@ def load_batch(path, predictor, fmt: CsvFormat | None = None) -> pd.DataFrame:
     batch[target] = numeric_column(batch, target, where, fmt)
     check_columns(batch, predictor, where)
     check_time_order(batch, where)
-    return _numeric_extras(batch, [*inputs, target], fmt).reset_index(drop=True)
+    batch = _numeric_extras(batch, [*inputs, target], fmt).reset_index(drop=True)
+    check_counters(batch, predictor.spec.get("monitor", {}).get("counters", []), where)
+    return batch
 
 
 def check_columns(batch: pd.DataFrame, predictor, where: str) -> None:
@@ -105,6 +107,23 @@ def check_time_order(batch: pd.DataFrame, where: str) -> None:
             raise InputError(
                 f"{where}, column {column!r}, row {row + 1} (line {row + 2}): {values.iloc[row]!r} is earlier than "
                 f"the row before ({values.iloc[row - 1]!r}); a batch must be in time order: sort it by {column!r}"
+            )
+
+
+def check_counters(batch: pd.DataFrame, counters, where: str) -> None:
+    """The columns that never went down over the production log (a stroke counter) must not go down over the
+    batch: without a timestamp, they are what says the batch runs in time order."""
+    for column in counters:
+        if column not in batch or not pd.api.types.is_numeric_dtype(batch[column]):
+            continue
+        values = batch[column].to_numpy(float)
+        down = np.flatnonzero(np.diff(values) < 0)
+        if len(down):
+            row = int(down[0]) + 1
+            raise InputError(
+                f"{where}, column {column!r}, row {row + 1} (line {row + 2}): {values[row]:g} is below the row "
+                f"before ({values[row - 1]:g}), where it never went down over the production log; a batch must "
+                f"be in time order: sort it by {column!r} (if the counter was reset, start a new batch there)"
             )
 
 
