@@ -152,3 +152,17 @@ def test_the_first_page_says_which_column_gave_way_to_an_id_by_chance():
     text = "\n".join(_errors(_summary(2.0, selected=False), "draw-in", "mm"))
     says(text, "``coil_id`` is an id, not a cause", "``thickness_mm`` is constant within each level of ``coil_id``")
     says(text, "18 levels no better than the columns ``coil_id`` holds fit them shuffled (p = 0.065)")
+
+
+def test_an_id_at_settings_of_its_own_is_said_so_on_the_diagnosis_page_and_the_first_page():
+    from hybridtwin.report.summary import _errors
+
+    summary = _summary(2.0, selected=False)
+    summary["proxies"] = {
+        "lot": {"accounted_by": ["a smooth function of the model inputs"], "share": None, "own_p": 0.4}
+    }
+    for text in (
+        diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm", None, "runs/p4/figures"),
+        "\n".join(_errors(summary, "draw-in", "mm")),
+    ):
+        says(text, "lot", "is an id, not a cause: its levels ran at inputs of their own", "p = 0.4")
