@@ -336,6 +336,8 @@ def test_a_batch_whose_stroke_counter_goes_down_stops_where_the_log_never_saw_it
     with pytest.raises(InputError) as error:
         watch.load_batch(path, counted)
     says(str(error.value), "column 'stroke_counter', row 2 (line 3)", "time order", "reset")
+    last, before = parts["stroke_counter"].iloc[-2], parts["stroke_counter"].iloc[-1]
+    says(str(error.value), f": {last:g} is below the row before ({before:g})")
     assert len(watch.load_batch(path, Predictor.load(MODELS))) == len(parts)  # a log with no counter: no check
     assert calibration.counters(parts) == ["stroke_counter"]
 

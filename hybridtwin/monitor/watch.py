@@ -98,33 +98,40 @@ def check_time_order(batch: pd.DataFrame, where: str) -> None:
         if not looks_like_timestamps(values):
             continue
         stamps = parse_timestamps(values)
-        if stamps is None:
-            continue
-        seconds = stamps.to_numpy("datetime64[ns]").astype("int64")
-        back = np.flatnonzero(np.diff(seconds) < 0)
-        if len(back):
-            row = int(back[0]) + 1
-            raise InputError(
-                f"{where}, column {column!r}, row {row + 1} (line {row + 2}): {values.iloc[row]!r} is earlier than "
-                f"the row before ({values.iloc[row - 1]!r}); a batch must be in time order: sort it by {column!r}"
-            )
+        if stamps is not None:
+            _in_order(stamps.to_numpy("datetime64[ns]").astype("int64"), values, column, where, "earlier than")
 
 
 def check_counters(batch: pd.DataFrame, counters, where: str) -> None:
     """The columns that never went down over the production log (a stroke counter) must not go down over the
     batch: without a timestamp, they are what says the batch runs in time order."""
     for column in counters:
-        if column not in batch or not pd.api.types.is_numeric_dtype(batch[column]):
-            continue
-        values = batch[column].to_numpy(float)
-        down = np.flatnonzero(np.diff(values) < 0)
-        if len(down):
-            row = int(down[0]) + 1
-            raise InputError(
-                f"{where}, column {column!r}, row {row + 1} (line {row + 2}): {values[row]:g} is below the row "
-                f"before ({values[row - 1]:g}), where it never went down over the production log; a batch must "
-                f"be in time order: sort it by {column!r} (if the counter was reset, start a new batch there)"
+        if column in batch and pd.api.types.is_numeric_dtype(batch[column]):
+            values = batch[column]
+            _in_order(
+                values.to_numpy(float),
+                values,
+                column,
+                where,
+                "below",
+                " (if the counter was reset, start a new batch there)",
             )
+
+
+def _cell(value) -> str:
+    return repr(value) if isinstance(value, str) else f"{value:g}"
+
+
+def _in_order(keys: np.ndarray, values: pd.Series, column: str, where: str, going_back: str, hint: str = "") -> None:
+    """Stop at the first row whose ``keys`` go back, with the file, column, row and both cells."""
+    back = np.flatnonzero(np.diff(keys) < 0)
+    if len(back):
+        row = int(back[0]) + 1
+        cell, previous = _cell(values.iloc[row]), _cell(values.iloc[row - 1])
+        raise InputError(
+            f"{where}, column {column!r}, row {row + 1} (line {row + 2}): {cell} is {going_back} the row before "
+            f"({previous}); a batch must be in time order: sort it by {column!r}{hint}"
+        )
 
 
 @dataclass
