@@ -190,7 +190,8 @@ def offsets_beyond_inputs_p(group: Candidate, y, inputs: list[Candidate], correl
     offsets (coils of one campaign, their material within a few per cent of the DoE's range). Levels that each ran
     at inputs of their own do not: the function takes up their offsets as well as the id does. On bi-fidelity
     functions used as simulation and plant, a lot per campaign, an id was named over a discrepancy of the inputs
-    alone on 24 of 33 plants, on 11 with this test (benchmarks/mf_diagnosis.py)."""
+    alone on 24 of 33 plants; on 3 with this test, the chosen forms of the inputs put back into ``y``
+    (:meth:`.selection.Selection._of_inputs`; benchmarks/mf_diagnosis.py)."""
     if correlation is None or not inputs:
         return None
     codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
