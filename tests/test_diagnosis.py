@@ -127,6 +127,7 @@ def test_the_summary_holds_what_later_steps_read():
         "skipped",
         "proxies",
         "by_chance",
+        "follows_inputs",
         "too_small",
     ]
     assert (summary["n_rows"], summary["surrogate_std"], summary["min_effect"]) == (600, 0.1, 0.1)

@@ -166,3 +166,15 @@ def test_an_id_at_settings_of_its_own_is_said_so_on_the_diagnosis_page_and_the_f
         "\n".join(_errors(summary, "draw-in", "mm")),
     ):
         says(text, "lot", "is an id, not a cause: its levels ran at inputs of their own", "p = 0.4")
+
+
+def test_a_trend_that_followed_the_settings_is_said_so_on_the_diagnosis_page_and_the_first_page():
+    from hybridtwin.report.summary import _errors
+
+    summary = _summary(2.0, selected=False)
+    summary["follows_inputs"] = {"stroke_counter": 0.34}
+    for text in (
+        diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm", None, "runs/p4/figures"),
+        "\n".join(_errors(summary, "draw-in", "mm")),
+    ):
+        says(text, "stroke_counter", "is not named: a trend in time that follows the settings", "p = 0.34")

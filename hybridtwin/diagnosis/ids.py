@@ -201,7 +201,7 @@ def offsets_beyond_inputs_p(group: Candidate, y, inputs: list[Candidate], correl
     means = np.bincount(codes, weights=y) / counts
     within = float(np.sum((y - means[codes]) ** 2)) / max(len(y) - len(counts), 1)
     level_inputs = np.column_stack([np.bincount(codes, weights=np.asarray(c.values, float)) / counts for c in inputs])
-    model = _LevelMeans(means, within / counts, lambda factor: correlation(level_inputs, factor))
+    model = LevelMeans(means, within / counts, lambda factor: correlation(level_inputs, factor))
     smooth_only = model.best(own=False)
     with_own = model.best(own=True, start=smooth_only)
     ratio = max(0.0, 2.0 * (model.loglik(with_own) - model.loglik(smooth_only)))
@@ -212,27 +212,52 @@ ROUGHER = 10.0  # the discrepancy may vary up to ten times faster in the inputs 
 
 
 @dataclass(frozen=True)
-class _LevelMeans:
+class LevelMeans:
     """The Gaussian likelihood of an id's level means (:func:`offsets_beyond_inputs_p`); parameters: the logs of
-    the smooth function's variance and of the id's own (over the means' variance), and of the length factor."""
+    the smooth function's variance and of the id's own (over the means' variance), and of the length factor.
+    ``regressors`` (levels x k): terms beside the constant, at their generalized least squares (a trend's values,
+    :func:`~hybridtwin.diagnosis.trends.trend_beyond_inputs_p`)."""
 
     means: np.ndarray
     sampling: np.ndarray
     correlation: Callable[[float], np.ndarray]
+    regressors: np.ndarray | None = None
 
-    def loglik(self, theta) -> float:
+    def _lower(self, theta) -> np.ndarray | None:
+        """The Cholesky factor of the means' covariance at ``theta``; None where it is not positive definite."""
         scale = float(np.var(self.means) + np.mean(self.sampling)) or 1.0
         smooth, own, factor = np.exp(theta)
         n = len(self.means)
         covariance = scale * (smooth * self.correlation(factor) + own * np.eye(n)) + np.diag(self.sampling)
         covariance[np.diag_indices(n)] += 1e-10 * scale
         try:
-            lower = np.linalg.cholesky(covariance)
+            return np.linalg.cholesky(covariance)
         except np.linalg.LinAlgError:
+            return None
+
+    def loglik(self, theta) -> float:
+        lower = self._lower(theta)
+        if lower is None:
             return -np.inf
+        n = len(self.means)
         white, ones = solve_triangular(lower, self.means, lower=True), solve_triangular(lower, np.ones(n), lower=True)
-        left = white - ones * (ones @ white) / (ones @ ones)  # the constant at its generalized least squares
+        if self.regressors is None:
+            left = white - ones * (ones @ white) / (ones @ ones)  # the constant at its generalized least squares
+        else:
+            design = np.column_stack([ones, solve_triangular(lower, self.regressors, lower=True)])
+            left = white - design @ np.linalg.lstsq(design, white, rcond=None)[0]
         return float(-0.5 * left @ left - np.sum(np.log(np.diag(lower))))
+
+    def information(self, theta, values) -> float:
+        """The generalized least squares information on the coefficient of ``values`` (one per level) beside the
+        constant, at ``theta``: what a coefficient of 1 gives a likelihood-ratio test as its noncentrality."""
+        lower = self._lower(theta)
+        if lower is None:
+            return 0.0
+        ones = solve_triangular(lower, np.ones(len(self.means)), lower=True)
+        white = solve_triangular(lower, np.asarray(values, float), lower=True)
+        left = white - ones * (ones @ white) / (ones @ ones)
+        return float(left @ left)
 
     def best(self, own: bool, start=None) -> np.ndarray:
         """The parameters of the largest likelihood, the id's own variance left at none unless ``own``."""

@@ -31,3 +31,7 @@ ID_ACCOUNTED_SMOOTH_FIRST = 0.25
 # column a small share of the id's (at most 0.38 on the families' coil plants; 0.64 and more where a column is the
 # cause)
 SMOOTH_SHARE_OF_ID = 0.6
+# a trend in time that parts run at the same settings do not show is not named where the test had this power to
+# see it (against the trend as fitted, at the diagnosis' level); with less, the data cannot tell it from the
+# settings that changed with time, and it is named as before
+TREND_POWER = 0.9

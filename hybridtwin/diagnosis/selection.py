@@ -30,9 +30,16 @@ from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
 from hybridtwin.diagnosis.ids import Proxy, held_columns, id_stands, level_chance_p
 from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
-from hybridtwin.diagnosis.policy import ID_ACCOUNTED_SMOOTH_FIRST, REFINE_PASSES, SHARE_TOLERANCE, SMOOTH_SHARE_OF_ID
+from hybridtwin.diagnosis.policy import (
+    ID_ACCOUNTED_SMOOTH_FIRST,
+    REFINE_PASSES,
+    SHARE_TOLERANCE,
+    SMOOTH_SHARE_OF_ID,
+    TREND_POWER,
+)
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.diagnosis.table import Found, causes_table, too_small
+from hybridtwin.diagnosis.trends import is_trend_in_time, trend_test
 from hybridtwin.metrics import block_means
 
 
@@ -55,6 +62,8 @@ class Diagnosis:
     too_small: list[Fit] = field(default_factory=list)  # found by the test but within the surrogate's uncertainty
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
+    # trends in time that showed nothing between parts run at the same settings: column -> p-value
+    follows_inputs: dict[str, float] = field(default_factory=dict)
 
     @property
     def terms(self) -> tuple[Term, ...]:
@@ -80,6 +89,8 @@ class Selection:
     no_interaction: set[str] = field(default_factory=set)
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
+    # trends in time that showed no effect between parts run at the same settings: name -> p-value
+    follows_inputs: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self):
         self.remaining = self.y if self.remaining is None else self.remaining
@@ -151,10 +162,34 @@ class Selection:
     def pool(self) -> list[Fit]:
         """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
         (their product does not beat their two columns, or gave way to one of them with the other causes in)."""
-        left_out = self.names | self.no_interaction
+        left_out = self.names | self.no_interaction | set(self.follows_inputs)
         return [f for n, f in self.conditional.items() if n not in left_out and f.form.name != forms.Additive.name]
 
     def _next_smooth(self, pool: list[Fit]) -> Fit | None:
+        """The best significant column, product or time given those chosen that is a cause (a trend in time only
+        with evidence beyond the settings that changed with time, :meth:`_beyond_inputs`)."""
+        while True:
+            named = self._strongest(pool)
+            if named is None or self._beyond_inputs(named):
+                return named
+            pool = [fit for fit in pool if fit.candidate.name != named.candidate.name]
+
+    def _beyond_inputs(self, fit: Fit) -> bool:
+        """Whether ``fit`` is no trend in time, or one that shows between parts run at the same settings
+        (:func:`~hybridtwin.diagnosis.trends.trend_test`, where the test could see it); a trend that does not is
+        recorded, and is no candidate from then on."""
+        if not is_trend_in_time(fit.candidate):
+            return True
+        settings = self.rules.settings
+        test = trend_test(
+            fit, self._of_inputs(), self.candidates, self.rules.input_correlation, settings.seed, settings.alpha
+        )
+        if test is None or test.p_value < settings.alpha or test.power < TREND_POWER:
+            return True
+        self.follows_inputs[fit.candidate.name] = test.p_value
+        return False
+
+    def _strongest(self, pool: list[Fit]) -> Fit | None:
         """The best significant column, product or time given those chosen (the simplest that predicts the same).
 
         A better-scoring candidate that is not significant (a drift whose gain comes in a few blocks) does not
@@ -375,6 +410,7 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         for name, why in selection.by_chance.items()
         if name not in selection.names and why[0] in selection.names
     }
+    follows_inputs = {name: p for name, p in selection.follows_inputs.items() if name not in selection.names}
     found = Found(
         selection.marginal,
         selection.conditional,
@@ -383,6 +419,7 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         explained_by,
         selection.proxies,
         by_chance,
+        follows_inputs,
     )
     table = causes_table(found, skipped, rules)
     return Diagnosis(
@@ -402,4 +439,5 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         selection.proxies,
         too_small(found, rules),
         by_chance,
+        follows_inputs,
     )

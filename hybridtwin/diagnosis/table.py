@@ -11,7 +11,12 @@ import pandas as pd
 
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.fits import Rules, is_significant
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
+from hybridtwin.diagnosis.wording import (
+    accounted_words,
+    by_chance_words,
+    settings_in_time_words,
+    smooth_inputs_words,
+)
 
 if TYPE_CHECKING:
     from hybridtwin.diagnosis.selection import Diagnosis
@@ -33,6 +38,7 @@ class Found:
     explained_by: dict
     proxies: dict
     by_chance: dict = field(default_factory=dict)  # column -> (the id that holds it, its levels, p)
+    follows_inputs: dict = field(default_factory=dict)  # a trend in time that follows the settings -> p
 
 
 def too_small(found: Found, rules: Rules) -> list:
@@ -42,6 +48,7 @@ def too_small(found: Found, rules: Rules) -> list:
     if rules.min_effect <= 0:
         return []
     left_out = {fit.candidate.name for fit in found.chosen} | set(found.proxies) | set(found.explained_by)
+    left_out |= set(found.follows_inputs)
     left_out |= {name for names in found.aliases.values() for name in names}
     chosen_columns = {column for fit in found.chosen for column in fit.candidate.columns}
     small = [
@@ -78,7 +85,8 @@ def _row(name: str, fit, found: Found, rules: Rules, small: set) -> dict:
         significant, scored, shown = True, final, final
     else:
         scored = found.conditional.get(name, fit)
-        significant = bool(rules.significant(scored if found.chosen else fit)) and name not in found.proxies
+        significant = bool(rules.significant(scored if found.chosen else fit))
+        significant = significant and name not in found.proxies and name not in found.follows_inputs
         shown = fit
     form = shown.form
     return {
@@ -123,6 +131,8 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
             "levels (fitted on its other levels), and what is left is within what the surrogate's own error "
             "gives between its levels or passes no other rule of a cause"
         )
+    if name in found.follows_inputs and name not in chosen:
+        return settings_in_time_words(found.follows_inputs[name])
     if name in found.by_chance and name not in chosen:
         group, levels, p_value = found.by_chance[name]
         return by_chance_words(name, group, levels, p_value) + f"; {group} goes first"
@@ -178,6 +188,8 @@ def summary_dict(result: Diagnosis) -> dict:
             name: {"id": group, "levels": levels, "p_value": p_value}
             for name, (group, levels, p_value) in result.by_chance.items()
         },
+        # trends in time that showed nothing between parts run at the same settings: column -> p-value
+        "follows_inputs": dict(result.follows_inputs),
         # found by the test, given the chosen causes, but within the surrogate's own uncertainty (best first)
         "too_small": [
             {

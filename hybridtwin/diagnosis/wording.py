@@ -30,3 +30,13 @@ def smooth_inputs_words(own_p: float) -> str:
         f"its levels ran at inputs of their own, and {SMOOTH_INPUTS} takes up its offsets as well as it does "
         f"(offsets of its own beyond that: p = {own_p:.2g}); levels run at the same settings would tell them apart"
     )
+
+
+def settings_in_time_words(p_value: float) -> str:
+    """Why a trend in time is not named where settings changed with time, in words (``p_value``: of the trend
+    between parts run at the same settings, beyond a smooth function of the inputs)."""
+    return (
+        "a trend in time that follows the settings: campaigns ran in time order at settings of their own, and "
+        f"parts run at the same settings (the halves of each run of a coil) show none of it beyond {SMOOTH_INPUTS} "
+        f"(p = {p_value:.2g})"
+    )

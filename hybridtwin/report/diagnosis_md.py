@@ -7,7 +7,12 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
+from hybridtwin.diagnosis.wording import (
+    accounted_words,
+    by_chance_words,
+    settings_in_time_words,
+    smooth_inputs_words,
+)
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
 # the report's words for the gain table's columns
@@ -167,6 +172,8 @@ def _not_separated(summary: dict) -> list[str]:
             "between its levels, fitted on its other levels, and what is left of them is too small to tell from "
             "the surrogate's own error."
         )
+    for column, p_value in summary.get("follows_inputs", {}).items():
+        notes.append(f"- {code(column)} is not named: {settings_in_time_words(p_value)}.")
     for column, held in summary.get("by_chance", {}).items():
         notes.append(
             f"- {by_chance_words(column, held['id'], held['levels'], held['p_value'], code)}, so "

@@ -12,7 +12,12 @@ import re
 
 import pandas as pd
 
-from hybridtwin.diagnosis.wording import accounted_words, by_chance_words, smooth_inputs_words
+from hybridtwin.diagnosis.wording import (
+    accounted_words,
+    by_chance_words,
+    settings_in_time_words,
+    smooth_inputs_words,
+)
 from hybridtwin.models import registry
 
 REGION_WORDS = {"in_support": "in the validated domain (in support)"}
@@ -64,6 +69,8 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
             continue
         accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
+    for column, p_value in diagnosis.get("follows_inputs", {}).items():
+        lines.append(f"  ``{column}`` is not named: {settings_in_time_words(p_value)}.")
     for column, held in diagnosis.get("by_chance", {}).items():
         words = by_chance_words(column, held["id"], held["levels"], held["p_value"], lambda name: f"``{name}``")
         lines.append(f"  {words}.")
