@@ -128,6 +128,7 @@ def test_the_summary_holds_what_later_steps_read():
         "proxies",
         "by_chance",
         "follows_inputs",
+        "untold_trends",
         "too_small",
     ]
     assert (summary["n_rows"], summary["surrogate_std"], summary["min_effect"]) == (600, 0.1, 0.1)

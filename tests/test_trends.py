@@ -7,6 +7,7 @@ from sklearn.gaussian_process.kernels import Matern
 
 from hybridtwin import diagnosis
 from hybridtwin.diagnosis import Candidate, Settings, best_fit, trends
+from hybridtwin.diagnosis.policy import TREND_POWER
 
 SETTINGS = Settings(folds=5, seed=0)
 
@@ -38,7 +39,7 @@ def test_a_trend_in_strokes_is_not_named_for_campaigns_at_settings_of_their_own(
     plain = diagnosis.diagnose(frame, y, ["x1", "x2"], [], SETTINGS, surrogate_std=0.05)
     assert "stroke_counter" in _named(plain)  # without the simulator's correlation
     result = diagnosis.diagnose(frame, y, ["x1", "x2"], [], SETTINGS, surrogate_std=0.05, input_correlation=_matern)
-    assert _named(result) == ["x1", "x2"]
+    assert _named(result) == ["x1", "x2"] and not result.untold_trends
     assert result.follows_inputs["stroke_counter"] >= SETTINGS.alpha
     row = result.table.set_index("cause").loc["stroke_counter"]
     assert not row["significant"] and "a trend in time that follows the settings" in row["note"]
@@ -48,7 +49,7 @@ def test_a_trend_in_strokes_is_not_named_for_campaigns_at_settings_of_their_own(
 def test_a_wear_that_rises_within_the_coils_is_named():
     frame, y = _campaigns(1, wear=3.0)
     result = diagnosis.diagnose(frame, y, ["x1", "x2"], [], SETTINGS, surrogate_std=0.05, input_correlation=_matern)
-    assert "stroke_counter" in _named(result) and not result.follows_inputs
+    assert "stroke_counter" in _named(result) and not result.follows_inputs and not result.untold_trends
 
 
 @pytest.mark.parametrize(("wear", "beyond"), [(0.0, False), (3.0, True)])
@@ -92,3 +93,7 @@ def test_a_trend_the_test_cannot_see_is_named_as_before():
     assert test.p_value > SETTINGS.alpha and test.power < 0.5
     result = diagnosis.diagnose(frame, y, ["x1", "x2"], [], SETTINGS, surrogate_std=0.05, input_correlation=_matern)
     assert "stroke_counter" in _named(result) and not result.follows_inputs
+    assert result.untold_trends["stroke_counter"].power < TREND_POWER
+    note = result.table.set_index("cause").loc["stroke_counter", "note"]
+    assert note.startswith("cannot be told apart from the settings that changed with time")
+    assert diagnosis.summary_dict(result)["untold_trends"]["stroke_counter"]["power"] < TREND_POWER

@@ -39,7 +39,7 @@ from hybridtwin.diagnosis.policy import (
 )
 from hybridtwin.diagnosis.settings import Settings
 from hybridtwin.diagnosis.table import Found, causes_table, too_small
-from hybridtwin.diagnosis.trends import is_trend_in_time, trend_test
+from hybridtwin.diagnosis.trends import TrendTest, is_trend_in_time, trend_test
 from hybridtwin.metrics import block_means
 
 
@@ -64,6 +64,8 @@ class Diagnosis:
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
     # trends in time that showed nothing between parts run at the same settings: column -> p-value
     follows_inputs: dict[str, float] = field(default_factory=dict)
+    # chosen trends in time the test between parts at the same settings could not see: column -> its TrendTest
+    untold_trends: dict[str, TrendTest] = field(default_factory=dict)
 
     @property
     def terms(self) -> tuple[Term, ...]:
@@ -89,8 +91,10 @@ class Selection:
     no_interaction: set[str] = field(default_factory=set)
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
-    # trends in time that showed no effect between parts run at the same settings: name -> p-value
+    # trends in time that showed nothing between parts run at the same settings: column -> p-value
     follows_inputs: dict[str, float] = field(default_factory=dict)
+    # trends in time the test between parts run at the same settings could not see: column -> its TrendTest
+    untold_trends: dict[str, TrendTest] = field(default_factory=dict)
 
     def __post_init__(self):
         self.remaining = self.y if self.remaining is None else self.remaining
@@ -184,7 +188,10 @@ class Selection:
         test = trend_test(
             fit, self._of_inputs(), self.candidates, self.rules.input_correlation, settings.seed, settings.alpha
         )
-        if test is None or test.p_value < settings.alpha or test.power < TREND_POWER:
+        if test is None or test.p_value < settings.alpha:
+            return True
+        if test.power < TREND_POWER:
+            self.untold_trends[fit.candidate.name] = test
             return True
         self.follows_inputs[fit.candidate.name] = test.p_value
         return False
@@ -411,6 +418,7 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         if name not in selection.names and why[0] in selection.names
     }
     follows_inputs = {name: p for name, p in selection.follows_inputs.items() if name not in selection.names}
+    untold = {name: test for name, test in selection.untold_trends.items() if name in selection.names}
     found = Found(
         selection.marginal,
         selection.conditional,
@@ -420,6 +428,7 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         selection.proxies,
         by_chance,
         follows_inputs,
+        untold,
     )
     table = causes_table(found, skipped, rules)
     return Diagnosis(
@@ -440,4 +449,5 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         too_small(found, rules),
         by_chance,
         follows_inputs,
+        untold,
     )

@@ -16,6 +16,7 @@ from hybridtwin.diagnosis.wording import (
     by_chance_words,
     settings_in_time_words,
     smooth_inputs_words,
+    untold_trend_words,
 )
 
 if TYPE_CHECKING:
@@ -39,6 +40,7 @@ class Found:
     proxies: dict
     by_chance: dict = field(default_factory=dict)  # column -> (the id that holds it, its levels, p)
     follows_inputs: dict = field(default_factory=dict)  # a trend in time that follows the settings -> p
+    untold_trends: dict = field(default_factory=dict)  # a chosen trend the test could not see -> TrendTest
 
 
 def too_small(found: Found, rules: Rules) -> list:
@@ -136,6 +138,8 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
     if name in found.by_chance and name not in chosen:
         group, levels, p_value = found.by_chance[name]
         return by_chance_words(name, group, levels, p_value) + f"; {group} goes first"
+    if name in found.untold_trends and name in chosen:
+        return untold_trend_words(*found.untold_trends[name])
     if found.aliases.get(name):
         return "cannot be told apart from " + ", ".join(found.aliases[name]) + " in this data"
     if alias_of:
@@ -190,6 +194,8 @@ def summary_dict(result: Diagnosis) -> dict:
         },
         # trends in time that showed nothing between parts run at the same settings: column -> p-value
         "follows_inputs": dict(result.follows_inputs),
+        # chosen trends in time that the test between parts at the same settings could not see
+        "untold_trends": {name: test._asdict() for name, test in result.untold_trends.items()},
         # found by the test, given the chosen causes, but within the surrogate's own uncertainty (best first)
         "too_small": [
             {

@@ -32,6 +32,16 @@ def smooth_inputs_words(own_p: float) -> str:
     )
 
 
+def untold_trend_words(p_value: float, power: float) -> str:
+    """A chosen trend in time that the data cannot tell from the settings that changed with time, in words."""
+    return (
+        "cannot be told apart from the settings that changed with time: every run of parts ran at settings of "
+        f"its own, and {SMOOTH_INPUTS} could follow the trend too (between parts run at the same settings the "
+        f"test saw nothing, p = {p_value:.2g}, with a power of {power:.0%} to see it); parts run again at earlier "
+        "settings would tell them apart"
+    )
+
+
 def settings_in_time_words(p_value: float) -> str:
     """Why a trend in time is not named where settings changed with time, in words (``p_value``: of the trend
     between parts run at the same settings, beyond a smooth function of the inputs)."""

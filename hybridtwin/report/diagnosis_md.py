@@ -12,6 +12,7 @@ from hybridtwin.diagnosis.wording import (
     by_chance_words,
     settings_in_time_words,
     smooth_inputs_words,
+    untold_trend_words,
 )
 from hybridtwin.models.registry import EXTENDED, HYBRID
 
@@ -172,6 +173,8 @@ def _not_separated(summary: dict) -> list[str]:
             "between its levels, fitted on its other levels, and what is left of them is too small to tell from "
             "the surrogate's own error."
         )
+    for column, test in summary.get("untold_trends", {}).items():
+        notes.append(f"- {code(column)} {untold_trend_words(test['p_value'], test['power'])}.")
     for column, p_value in summary.get("follows_inputs", {}).items():
         notes.append(f"- {code(column)} is not named: {settings_in_time_words(p_value)}.")
     for column, held in summary.get("by_chance", {}).items():

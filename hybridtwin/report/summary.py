@@ -17,6 +17,7 @@ from hybridtwin.diagnosis.wording import (
     by_chance_words,
     settings_in_time_words,
     smooth_inputs_words,
+    untold_trend_words,
 )
 from hybridtwin.models import registry
 
@@ -69,6 +70,8 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
             continue
         accounted = accounted_words(named["accounted_by"], lambda name: f"``{name}``")
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
+    for column, test in diagnosis.get("untold_trends", {}).items():
+        lines.append(f"  ``{column}`` {untold_trend_words(test['p_value'], test['power'])}.")
     for column, p_value in diagnosis.get("follows_inputs", {}).items():
         lines.append(f"  ``{column}`` is not named: {settings_in_time_words(p_value)}.")
     for column, held in diagnosis.get("by_chance", {}).items():
