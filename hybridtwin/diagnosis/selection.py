@@ -245,6 +245,23 @@ class Selection:
         terms = [fit.form.predict(fit.candidate.values) for fit in of_inputs]
         return self.remaining + sum(terms, np.zeros(len(self.y)))
 
+    def found(self, aliases: dict, explained_by: dict) -> Found:
+        """What the selection found, as the table reports it, with what could not be told apart (``aliases``) and
+        what was explained (``explained_by``): the records kept only where they still hold for the chosen causes
+        (the causes after the first may have been chosen again)."""
+        names = self.names
+        return Found(
+            self.marginal,
+            self.conditional,
+            self.chosen,
+            aliases,
+            explained_by,
+            self.proxies,
+            {name: why for name, why in self.by_chance.items() if name not in names and why[0] in names},
+            {name: p for name, p in self.follows_inputs.items() if name not in names},
+            {name: test for name, test in self.untold_trends.items() if name in names},
+        )
+
     def forward(self) -> None:
         """Forward selection, each step conditional on the causes already chosen."""
         while len(self.chosen) < self.rules.settings.max_causes:
@@ -410,26 +427,7 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
     if selection.refine():
         selection.choose_again_after_the_first()
     selection.drop_products_an_id_holds()
-    aliases, explained_by = confounding(selection.chosen, selection.marginal, y, rules)
-    # what gave way to an id that is still named (the causes after the first may have been chosen again)
-    by_chance = {
-        name: why
-        for name, why in selection.by_chance.items()
-        if name not in selection.names and why[0] in selection.names
-    }
-    follows_inputs = {name: p for name, p in selection.follows_inputs.items() if name not in selection.names}
-    untold = {name: test for name, test in selection.untold_trends.items() if name in selection.names}
-    found = Found(
-        selection.marginal,
-        selection.conditional,
-        selection.chosen,
-        aliases,
-        explained_by,
-        selection.proxies,
-        by_chance,
-        follows_inputs,
-        untold,
-    )
+    found = selection.found(*confounding(selection.chosen, selection.marginal, y, rules))
     table = causes_table(found, skipped, rules)
     return Diagnosis(
         offset,
@@ -443,11 +441,11 @@ def diagnose(frame, residual, inputs, exclude, settings: Settings, surrogate_std
         {c.name: c for c in candidates},
         skipped,
         selection.chosen,
-        aliases,
-        explained_by,
+        found.aliases,
+        found.explained_by,
         selection.proxies,
         too_small(found, rules),
-        by_chance,
-        follows_inputs,
-        untold,
+        found.by_chance,
+        found.follows_inputs,
+        found.untold_trends,
     )
