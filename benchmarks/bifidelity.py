@@ -41,9 +41,9 @@ import numpy as np
 import pandas as pd
 import yaml
 from plain_baselines import PLAIN_GP, PLAIN_MFK, plain_baselines
-from scipy.stats import qmc
 
 from hybridtwin import pipeline
+from hybridtwin.demo.bifidelity import at_an_edge, doe_and_spread, scattered
 from hybridtwin.io import files
 from hybridtwin.models import registry
 
@@ -66,20 +66,16 @@ def plant(function: str, seed: int) -> dict:
     low, high, d = f.l_bound, f.u_bound, f.ndim
     width = high - low
     inputs = [f"x{j + 1}" for j in range(d)]
-    sampler = qmc.LatinHypercube(d=d, seed=rng)
-    doe_x = qmc.scale(sampler.random(max(30, 10 * d)), low + 0.1 * width, high - 0.1 * width)
-    spread = np.ptp(f.high(qmc.scale(qmc.LatinHypercube(d=d, seed=rng).random(20_000), low, high)))
+    doe_x, spread = doe_and_spread(f, rng)
     noise = NOISE_SHARE * spread
     sizes = np.diff(np.linspace(0, N_PARTS, N_CAMPAIGNS + 1).round().astype(int))
     edge = rng.permutation(np.arange(N_CAMPAIGNS) % 2 == 1)  # half the campaigns at an edge of the box
     parts = []
     for size, at_edge in zip(sizes, edge):
         centre = low + width * rng.uniform(0.2, 0.8, d)
-        if at_edge:  # one input between 1% and 7% of the box from its edge: beyond the DoE (the inner 80%)
-            j = rng.integers(d)
-            inset = rng.uniform(0.01, 0.07) * width[j]
-            centre[j] = high[j] - inset if rng.random() < 0.5 else low[j] + inset
-        parts.append(np.clip(centre + rng.normal(0, 0.02 * width, (size, d)), low, high))
+        if at_edge:
+            at_an_edge(centre, f, rng)
+        parts.append(scattered(centre, size, f, rng))
     X = np.vstack(parts)
     truth = f.high(X)
     production = pd.DataFrame(X, columns=inputs).assign(**{TARGET: truth + rng.normal(0, noise, len(X))})

@@ -29,6 +29,29 @@ N_PARTS, NOISE_SHARE, SCATTER = 20_000, 0.02, 0.02
 LOG_COLUMNS = ("timestamp", "stroke_counter", "coil_id", "lot")
 
 
+def doe_and_spread(f, rng) -> tuple[np.ndarray, float]:
+    """A function's DoE (a Latin hypercube of 10 runs per input, at least 30, over the inner 80% of the box) and the
+    spread of its high fidelity over the whole box (20,000 points)."""
+    low, high, d = np.asarray(f.l_bound, float), np.asarray(f.u_bound, float), f.ndim
+    width = high - low
+    doe_x = qmc.scale(qmc.LatinHypercube(d=d, seed=rng).random(max(30, 10 * d)), low + 0.1 * width, high - 0.1 * width)
+    return doe_x, float(np.ptp(f.high(qmc.scale(qmc.LatinHypercube(d=d, seed=rng).random(20_000), low, high))))
+
+
+def at_an_edge(centre: np.ndarray, f, rng) -> None:
+    """Moves one input of a campaign's ``centre`` to between 1% and 7% of the box from an edge: beyond the DoE."""
+    low, high = np.asarray(f.l_bound, float), np.asarray(f.u_bound, float)
+    j = rng.integers(f.ndim)
+    inset = rng.uniform(0.01, 0.07) * (high[j] - low[j])
+    centre[j] = high[j] - inset if rng.random() < 0.5 else low[j] + inset
+
+
+def scattered(centre: np.ndarray, n: int, f, rng) -> np.ndarray:
+    """``n`` parts' inputs about a campaign's ``centre``: a scatter of :data:`SCATTER` of the box, kept in it."""
+    low, high = np.asarray(f.l_bound, float), np.asarray(f.u_bound, float)
+    return np.clip(centre + rng.normal(0, SCATTER * (high - low), (n, f.ndim)), low, high)
+
+
 def plant(function: str, seed: int) -> families.PlantCase:
     """DoE, production log (inputs, target and log columns) and noise-free truth of one function's plant."""
     import mf2
@@ -38,8 +61,7 @@ def plant(function: str, seed: int) -> families.PlantCase:
     low, high, d = np.asarray(f.l_bound, float), np.asarray(f.u_bound, float), f.ndim
     width = high - low
     inputs = [f"x{j + 1}" for j in range(d)]
-    doe_x = qmc.scale(qmc.LatinHypercube(d=d, seed=rng).random(max(30, 10 * d)), low + 0.1 * width, high - 0.1 * width)
-    spread = np.ptp(f.high(qmc.scale(qmc.LatinHypercube(d=d, seed=rng).random(20_000), low, high)))
+    doe_x, spread = doe_and_spread(f, rng)
     elapsed, _, _, strokes = families._timeline(N_PARTS, rng)
     coil = families._coils(N_PARTS, rng)
     coils_per_lot = rng.integers(2, 6, coil.max() + 2)
@@ -48,11 +70,9 @@ def plant(function: str, seed: int) -> families.PlantCase:
     for level in np.unique(lot):
         rows = lot == level
         centre = low + width * rng.uniform(0.2, 0.8, d)
-        if rng.random() < 0.5:  # one input between 1% and 7% of the box from its edge: beyond the DoE
-            j = rng.integers(d)
-            inset = rng.uniform(0.01, 0.07) * width[j]
-            centre[j] = high[j] - inset if rng.random() < 0.5 else low[j] + inset
-        X[rows] = np.clip(centre + rng.normal(0, SCATTER * width, (rows.sum(), d)), low, high)
+        if rng.random() < 0.5:
+            at_an_edge(centre, f, rng)
+        X[rows] = scattered(centre, rows.sum(), f, rng)
     truth = f.high(X)
     noise = NOISE_SHARE * spread
     stamps = pd.Timestamp("2025-03-03 06:00") + pd.to_timedelta(np.round(elapsed), unit="s")
