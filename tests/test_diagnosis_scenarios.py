@@ -104,8 +104,10 @@ def test_extension_never_loses_to_the_hybrid_out_of_support(outcome):
 
 # bi-fidelity functions as simulation and plant (hybridtwin.demo.bifidelity, a lot per campaign): the lot was named
 # over a discrepancy of the inputs alone before its level means were judged against a smooth function of them;
-# on Branin (seed 12) after a parabola in x1, until the parabola was put back for that judgement
-BIFIDELITY = [("hartmann6", 13), ("currin", 11), ("branin", 12)]
+# on Branin (seed 12) after a parabola in x1, until the parabola was put back for that judgement; on Booth (seed 12) a
+# parabola in the stroke counter followed the campaigns' offsets until a trend had to show between parts run at the
+# same settings (the lot was named after it)
+BIFIDELITY = [("hartmann6", 13), ("currin", 11), ("branin", 12), ("booth", 12)]
 
 
 @pytest.mark.parametrize("function, seed", BIFIDELITY)

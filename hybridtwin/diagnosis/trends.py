@@ -73,9 +73,9 @@ def half_levels(runs: np.ndarray, seed: int) -> np.ndarray:
     return np.where(keep[codes], level, -1)
 
 
-def trend_test(fit: Fit, y, candidates: list[Candidate], correlation, seed: int, alpha: float) -> "TrendTest | None":
+def trend_test(fit: Fit, y, candidates: list[Candidate], correlation, seed: int, alpha: float) -> TrendTest | None:
     """The trend ``fit`` (a cause in time) tested beyond a smooth function of the inputs between parts run at the
-    same settings (:mod:`this module's <hybridtwin.diagnosis.trends>` method), at level ``alpha``; None without
+    same settings (this module's method), at level ``alpha``; None without
     inputs or without the simulator's correlation (:attr:`.fits.Rules.input_correlation`), or with fewer than
     three levels. ``y``: what is left, with the chosen causes of the inputs alone put back."""
     inputs = [c for c in candidates if c.kind == "input"]
