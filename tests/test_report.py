@@ -172,11 +172,11 @@ def test_a_trend_that_followed_the_settings_is_said_so_on_the_diagnosis_page_and
     from hybridtwin.report.summary import _errors
 
     summary = _summary(2.0, selected=False)
-    summary["follows_inputs"] = {"stroke_counter": 0.34}
+    summary["follows_inputs"] = {"stroke_counter": {"p_value": 0.34, "power": 0.97}}
     summary["untold_trends"] = {"timestamp": {"p_value": 0.5, "power": 0.03}}
     for text in (
         diagnosis_markdown(CAUSES, summary, GAIN, "draw-in", "mm", None, "runs/p4/figures"),
         "\n".join(_errors(summary, "draw-in", "mm")),
     ):
-        says(text, "stroke_counter", "is not named: a trend in time that follows the settings", "p = 0.34")
+        says(text, "stroke_counter", "is not named: a trend in time that follows the settings", "p = 0.34", "97%")
         says(text, "timestamp", "cannot be told apart from the settings that changed with time", "power of 3%")

@@ -6,8 +6,10 @@ import pytest
 from sklearn.gaussian_process.kernels import Matern
 
 from hybridtwin import diagnosis
-from hybridtwin.diagnosis import Candidate, Settings, best_fit, trends
+from hybridtwin.diagnosis import Candidate, Settings, best_fit, selection, trends
+from hybridtwin.diagnosis.fits import Rules
 from hybridtwin.diagnosis.policy import TREND_POWER
+from hybridtwin.diagnosis.table import Found, too_small
 
 SETTINGS = Settings(folds=5, seed=0)
 
@@ -40,10 +42,11 @@ def test_a_trend_in_strokes_is_not_named_for_campaigns_at_settings_of_their_own(
     assert "stroke_counter" in _named(plain)  # without the simulator's correlation
     result = diagnosis.diagnose(frame, y, ["x1", "x2"], [], SETTINGS, surrogate_std=0.05, input_correlation=_matern)
     assert _named(result) == ["x1", "x2"] and not result.untold_trends
-    assert result.follows_inputs["stroke_counter"] >= SETTINGS.alpha
+    assert result.follows_inputs["stroke_counter"].p_value >= SETTINGS.alpha
     row = result.table.set_index("cause").loc["stroke_counter"]
     assert not row["significant"] and "a trend in time that follows the settings" in row["note"]
-    assert diagnosis.summary_dict(result)["follows_inputs"] == result.follows_inputs
+    summary = diagnosis.summary_dict(result)["follows_inputs"]
+    assert summary == {"stroke_counter": result.follows_inputs["stroke_counter"]._asdict()}
 
 
 def test_a_wear_that_rises_within_the_coils_is_named():
@@ -97,3 +100,37 @@ def test_a_trend_the_test_cannot_see_is_named_as_before():
     note = result.table.set_index("cause").loc["stroke_counter", "note"]
     assert note.startswith("cannot be told apart from the settings that changed with time")
     assert diagnosis.summary_dict(result)["untold_trends"]["stroke_counter"]["power"] < TREND_POWER
+
+
+def _strokes_selection(frame, y):
+    columns = [Candidate.new(c, "input", frame[c].to_numpy(), (c,)) for c in ("x1", "x2")]
+    columns += [Candidate.new("stroke_counter", "log", frame["stroke_counter"].to_numpy(), ("stroke_counter",))]
+    rules = Rules(SETTINGS, len(columns), 0.0, _matern)
+    return selection.Selection(y, columns, rules, rules.fit_all(columns, y))
+
+
+@pytest.mark.parametrize(("power", "dropped"), [(0.95, True), (0.5, False)])
+def test_a_trend_is_dropped_only_where_the_test_could_have_seen_it(monkeypatch, power, dropped):
+    frame, y = _campaigns(3, wear=0.0)
+    chosen = _strokes_selection(frame, y)
+    strokes = chosen.marginal["stroke_counter"]
+    monkeypatch.setattr(selection, "trend_test", lambda *args: trends.TrendTest(0.5, power))
+    assert chosen._beyond_inputs(strokes) is not dropped
+    assert ("stroke_counter" in chosen.follows_inputs) is dropped
+    assert ("stroke_counter" in chosen.untold_trends) is not dropped
+    assert ("stroke_counter" in [fit.candidate.name for fit in chosen.pool()]) is not dropped
+    monkeypatch.setattr(selection, "trend_test", lambda *args: trends.TrendTest(0.001, 0.95))
+    assert _strokes_selection(frame, y)._beyond_inputs(strokes)  # seen between parts at the same settings
+
+
+def test_a_trend_that_followed_the_settings_is_not_called_too_small():
+    frame, y = _campaigns(3, wear=0.0)
+    chosen = _strokes_selection(frame, y)
+    chosen.chosen = [chosen.marginal["x1"], chosen.marginal["x2"]]
+    chosen.refit()  # the stroke counter is significant given the inputs' forms
+    rules = Rules(SETTINGS, 3, min_effect=10.0)  # every effect within the surrogate's uncertainty
+    found = Found(chosen.marginal, chosen.conditional, chosen.chosen, {}, {}, {})
+    assert "stroke_counter" in [fit.candidate.name for fit in too_small(found, rules)]
+    followed = {"stroke_counter": trends.TrendTest(0.5, 0.99)}
+    found = Found(chosen.marginal, chosen.conditional, chosen.chosen, {}, {}, {}, {}, followed)
+    assert "stroke_counter" not in [fit.candidate.name for fit in too_small(found, rules)]

@@ -216,7 +216,7 @@ class LevelMeans:
     """The Gaussian likelihood of an id's level means (:func:`offsets_beyond_inputs_p`); parameters: the logs of
     the smooth function's variance and of the id's own (over the means' variance), and of the length factor.
     ``regressors`` (levels x k): terms beside the constant, at their generalized least squares (a trend's values,
-    :func:`~hybridtwin.diagnosis.trends.trend_beyond_inputs_p`)."""
+    :func:`~hybridtwin.diagnosis.trends.trend_test`)."""
 
     means: np.ndarray
     sampling: np.ndarray

@@ -62,8 +62,8 @@ class Diagnosis:
     too_small: list[Fit] = field(default_factory=list)  # found by the test but within the surrogate's uncertainty
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
-    # trends in time that showed nothing between parts run at the same settings: column -> p-value
-    follows_inputs: dict[str, float] = field(default_factory=dict)
+    # trends in time that showed nothing between parts run at the same settings: column -> its TrendTest
+    follows_inputs: dict[str, TrendTest] = field(default_factory=dict)
     # chosen trends in time the test between parts at the same settings could not see: column -> its TrendTest
     untold_trends: dict[str, TrendTest] = field(default_factory=dict)
 
@@ -91,8 +91,8 @@ class Selection:
     no_interaction: set[str] = field(default_factory=set)
     # columns an id holds that fitted its level means no better than chance: column -> (id, levels, p)
     by_chance: dict[str, tuple[str, int, float]] = field(default_factory=dict)
-    # trends in time that showed nothing between parts run at the same settings: column -> p-value
-    follows_inputs: dict[str, float] = field(default_factory=dict)
+    # trends in time that showed nothing between parts run at the same settings: column -> its TrendTest
+    follows_inputs: dict[str, TrendTest] = field(default_factory=dict)
     # trends in time the test between parts run at the same settings could not see: column -> its TrendTest
     untold_trends: dict[str, TrendTest] = field(default_factory=dict)
 
@@ -120,8 +120,12 @@ class Selection:
         pool = self.pool()
         smooth = [f for f in pool if f.candidate.kind != "group"]
         best = self._next_smooth(smooth) if smooth else None
-        # an id is tried only where it predicts better than every significant smooth cause
-        bar = min((f.score for f in smooth if self.rules.significant(f)), default=np.inf)
+        # an id is tried only where it predicts better than every significant smooth cause (not a trend in time
+        # that followed the settings)
+        bar = min(
+            (f.score for f in smooth if self.rules.significant(f) and f.candidate.name not in self.follows_inputs),
+            default=np.inf,
+        )
         named_id, accounted = self._next_id([f for f in pool if f.candidate.kind == "group" and f.score < bar])
         # an id whose offsets are mostly what the smooth causes do is named after them (a lubricant per coil)
         if named_id is None or (
@@ -193,7 +197,7 @@ class Selection:
         if test.power < TREND_POWER:
             self.untold_trends[fit.candidate.name] = test
             return True
-        self.follows_inputs[fit.candidate.name] = test.p_value
+        self.follows_inputs[fit.candidate.name] = test
         return False
 
     def _strongest(self, pool: list[Fit]) -> Fit | None:
@@ -258,7 +262,7 @@ class Selection:
             explained_by,
             self.proxies,
             {name: why for name, why in self.by_chance.items() if name not in names and why[0] in names},
-            {name: p for name, p in self.follows_inputs.items() if name not in names},
+            {name: test for name, test in self.follows_inputs.items() if name not in names},
             {name: test for name, test in self.untold_trends.items() if name in names},
         )
 
@@ -330,7 +334,8 @@ class Selection:
             return self._product_to_column(j, rest)
         again = self.rules.best_fit(fit.candidate, rest)
         if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
-            logged = [c for c in self.candidates if c.kind in ("input", "log") and c.name not in self.names]
+            left_out = self.names | set(self.follows_inputs)
+            logged = [c for c in self.candidates if c.kind in ("input", "log") and c.name not in left_out]
             again = prefer_simpler(again, [again] + [self.rules.best_fit(c, rest) for c in logged], rest, self.rules)
         if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and self.rules.significant(
             again
@@ -364,7 +369,8 @@ class Selection:
         others = [
             c
             for c in self.candidates
-            if c.kind in ("input", "log", "time") and c.name not in self.names | {column.candidate.name}
+            if c.kind in ("input", "log", "time")
+            and c.name not in self.names | set(self.follows_inputs) | {column.candidate.name}
         ]
         rivals = [fit for fit in self.rules.fit_all(others, rest).values() if self.rules.significant(fit)]
         strongest = min(rivals + [column], key=self._rank)

@@ -39,7 +39,7 @@ class Found:
     explained_by: dict
     proxies: dict
     by_chance: dict = field(default_factory=dict)  # column -> (the id that holds it, its levels, p)
-    follows_inputs: dict = field(default_factory=dict)  # a trend in time that follows the settings -> p
+    follows_inputs: dict = field(default_factory=dict)  # a trend in time that follows the settings -> TrendTest
     untold_trends: dict = field(default_factory=dict)  # a chosen trend the test could not see -> TrendTest
 
 
@@ -134,7 +134,7 @@ def _note(name: str, fit, form, significant: bool, found: Found) -> str:
             "gives between its levels or passes no other rule of a cause"
         )
     if name in found.follows_inputs and name not in chosen:
-        return settings_in_time_words(found.follows_inputs[name])
+        return settings_in_time_words(*found.follows_inputs[name])
     if name in found.by_chance and name not in chosen:
         group, levels, p_value = found.by_chance[name]
         return by_chance_words(name, group, levels, p_value) + f"; {group} goes first"
@@ -193,7 +193,7 @@ def summary_dict(result: Diagnosis) -> dict:
             for name, (group, levels, p_value) in result.by_chance.items()
         },
         # trends in time that showed nothing between parts run at the same settings: column -> p-value
-        "follows_inputs": dict(result.follows_inputs),
+        "follows_inputs": {name: test._asdict() for name, test in result.follows_inputs.items()},
         # chosen trends in time that the test between parts at the same settings could not see
         "untold_trends": {name: test._asdict() for name, test in result.untold_trends.items()},
         # found by the test, given the chosen causes, but within the surrogate's own uncertainty (best first)

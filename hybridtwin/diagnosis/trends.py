@@ -53,7 +53,7 @@ def is_trend_in_time(candidate: Candidate) -> bool:
     if candidate.kind != "log":
         return False
     steps = np.diff(np.asarray(candidate.values, float))
-    moves = steps[steps != 0]
+    moves = steps[np.isfinite(steps) & (steps != 0)]
     return len(moves) > 0 and max(np.mean(moves > 0), np.mean(moves < 0)) >= MONOTONE_SHARE
 
 
@@ -104,7 +104,7 @@ def trend_test(fit: Fit, y, candidates: list[Candidate], correlation, seed: int,
     alternative = with_trend.best(own=False, start=null)
     ratio = max(0.0, 2.0 * (with_trend.loglik(alternative) - without.loglik(null)))
     # the trend as fitted (a coefficient of 1) where it is the plant's: how surely the test would see it
-    power = float(ncx2.sf(chi2.ppf(1.0 - alpha, 1), 1, without.information(alternative, trend)))
+    power = float(ncx2.sf(chi2.ppf(1.0 - alpha, 1), 1, with_trend.information(alternative, trend)))
     return TrendTest(float(chi2.sf(ratio, 1)), power)
 
 

@@ -35,18 +35,18 @@ def smooth_inputs_words(own_p: float) -> str:
 def untold_trend_words(p_value: float, power: float) -> str:
     """A chosen trend in time that the data cannot tell from the settings that changed with time, in words."""
     return (
-        "cannot be told apart from the settings that changed with time: every run of parts ran at settings of "
-        f"its own, and {SMOOTH_INPUTS} could follow the trend too (between parts run at the same settings the "
-        f"test saw nothing, p = {p_value:.2g}, with a power of {power:.0%} to see it); parts run again at earlier "
-        "settings would tell them apart"
+        "cannot be told apart from the settings that changed with time: the runs of parts at the same settings "
+        f"were too few or too short to show it (between them the test saw nothing, p = {p_value:.2g}, with a power "
+        f"of {power:.0%} to see the trend as fitted), and {SMOOTH_INPUTS} could follow it too; longer coils, or "
+        "parts run again at earlier settings, would tell them apart"
     )
 
 
-def settings_in_time_words(p_value: float) -> str:
-    """Why a trend in time is not named where settings changed with time, in words (``p_value``: of the trend
-    between parts run at the same settings, beyond a smooth function of the inputs)."""
+def settings_in_time_words(p_value: float, power: float) -> str:
+    """Why a trend in time is not named where settings changed with time, in words: the p-value of the trend
+    between parts run at the same settings beyond a smooth function of the inputs, and the test's power."""
     return (
-        "a trend in time that follows the settings: campaigns ran in time order at settings of their own, and "
-        f"parts run at the same settings (the halves of each run of a coil) show none of it beyond {SMOOTH_INPUTS} "
-        f"(p = {p_value:.2g})"
+        "a trend in time that follows the settings that changed with time; between parts run at the same settings "
+        f"(the halves of each run of parts with the same ids) it did not show beyond {SMOOTH_INPUTS} (p = "
+        f"{p_value:.2g}), where the test had a power of {power:.0%} to see the trend as fitted"
     )

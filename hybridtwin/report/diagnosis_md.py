@@ -175,8 +175,8 @@ def _not_separated(summary: dict) -> list[str]:
         )
     for column, test in summary.get("untold_trends", {}).items():
         notes.append(f"- {code(column)} {untold_trend_words(test['p_value'], test['power'])}.")
-    for column, p_value in summary.get("follows_inputs", {}).items():
-        notes.append(f"- {code(column)} is not named: {settings_in_time_words(p_value)}.")
+    for column, test in summary.get("follows_inputs", {}).items():
+        notes.append(f"- {code(column)} is not named: {settings_in_time_words(test['p_value'], test['power'])}.")
     for column, held in summary.get("by_chance", {}).items():
         notes.append(
             f"- {by_chance_words(column, held['id'], held['levels'], held['p_value'], code)}, so "

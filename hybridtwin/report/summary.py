@@ -72,8 +72,8 @@ def _errors(diagnosis: dict, target: str, unit: str) -> list[str]:
         lines.append(f"  ``{proxy}`` is an id, not a cause: {accounted} account for its offsets.")
     for column, test in diagnosis.get("untold_trends", {}).items():
         lines.append(f"  ``{column}`` {untold_trend_words(test['p_value'], test['power'])}.")
-    for column, p_value in diagnosis.get("follows_inputs", {}).items():
-        lines.append(f"  ``{column}`` is not named: {settings_in_time_words(p_value)}.")
+    for column, test in diagnosis.get("follows_inputs", {}).items():
+        lines.append(f"  ``{column}`` is not named: {settings_in_time_words(test['p_value'], test['power'])}.")
     for column, held in diagnosis.get("by_chance", {}).items():
         words = by_chance_words(column, held["id"], held["levels"], held["p_value"], lambda name: f"``{name}``")
         lines.append(f"  {words}.")
