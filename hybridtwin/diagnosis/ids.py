@@ -197,11 +197,7 @@ def offsets_beyond_inputs_p(group: Candidate, y, inputs: list[Candidate], correl
     codes, counts = np.unique(np.asarray(group.values).astype(str), return_inverse=True, return_counts=True)[1:]
     if len(counts) < 3:
         return None
-    y = np.asarray(y, float)
-    means = np.bincount(codes, weights=y) / counts
-    within = float(np.sum((y - means[codes]) ** 2)) / max(len(y) - len(counts), 1)
-    level_inputs = np.column_stack([np.bincount(codes, weights=np.asarray(c.values, float)) / counts for c in inputs])
-    model = LevelMeans(means, within / counts, lambda factor: correlation(level_inputs, factor))
+    model = LevelMeans.of(codes, counts, y, [c.values for c in inputs], correlation)
     smooth_only = model.best(own=False)
     with_own = model.best(own=True, start=smooth_only)
     ratio = max(0.0, 2.0 * (model.loglik(with_own) - model.loglik(smooth_only)))
@@ -223,6 +219,23 @@ class LevelMeans:
     correlation: Callable[[float], np.ndarray]
     regressors: np.ndarray | None = None
 
+    @classmethod
+    def of(cls, codes, counts, y, input_values, correlation, row_regressors=()) -> "LevelMeans":
+        """The model of the level means of ``y`` (a level code per row, ``counts`` rows a level), their sampling
+        variance from the scatter within the levels, the correlation at the levels' mean inputs (``input_values``:
+        one column per input) and the level means of ``row_regressors`` (one value per row each) beside the
+        constant."""
+        y = np.asarray(y, float)
+
+        def level_means(values) -> np.ndarray:
+            return np.bincount(codes, weights=np.asarray(values, float)) / counts
+
+        means = level_means(y)
+        within = float(np.sum((y - means[codes]) ** 2)) / max(len(y) - len(counts), 1)
+        level_inputs = np.column_stack([level_means(values) for values in input_values])
+        regressors = np.column_stack([level_means(r) for r in row_regressors]) if len(row_regressors) else None
+        return cls(means, within / counts, lambda factor: correlation(level_inputs, factor), regressors)
+
     def _lower(self, theta) -> np.ndarray | None:
         """The Cholesky factor of the means' covariance at ``theta``; None where it is not positive definite."""
         scale = float(np.var(self.means) + np.mean(self.sampling)) or 1.0
@@ -239,10 +252,9 @@ class LevelMeans:
         lower = self._lower(theta)
         if lower is None:
             return -np.inf
-        n = len(self.means)
-        white, ones = solve_triangular(lower, self.means, lower=True), solve_triangular(lower, np.ones(n), lower=True)
+        white, ones = solve_triangular(lower, self.means, lower=True), self._white_ones(lower)
         if self.regressors is None:
-            left = white - ones * (ones @ white) / (ones @ ones)  # the constant at its generalized least squares
+            left = _off_constant(white, ones)
         else:
             design = np.column_stack([ones, solve_triangular(lower, self.regressors, lower=True)])
             left = white - design @ np.linalg.lstsq(design, white, rcond=None)[0]
@@ -254,10 +266,11 @@ class LevelMeans:
         lower = self._lower(theta)
         if lower is None:
             return 0.0
-        ones = solve_triangular(lower, np.ones(len(self.means)), lower=True)
-        white = solve_triangular(lower, np.asarray(values, float), lower=True)
-        left = white - ones * (ones @ white) / (ones @ ones)
+        left = _off_constant(solve_triangular(lower, np.asarray(values, float), lower=True), self._white_ones(lower))
         return float(left @ left)
+
+    def _white_ones(self, lower: np.ndarray) -> np.ndarray:
+        return solve_triangular(lower, np.ones(len(self.means)), lower=True)
 
     def best(self, own: bool, start=None) -> np.ndarray:
         """The parameters of the largest likelihood, the id's own variance left at none unless ``own``."""
@@ -271,6 +284,11 @@ class LevelMeans:
             for s in dict.fromkeys(starts)
         ]
         return min(tried, key=lambda result: result.fun).x
+
+
+def _off_constant(white: np.ndarray, ones: np.ndarray) -> np.ndarray:
+    """A whitened vector less the constant at its generalized least squares (``ones``: the whitened constant)."""
+    return white - ones * (ones @ white) / (ones @ ones)
 
 
 def _names(inputs: list[Candidate], smooth: list[Fit]) -> tuple[str, ...]:

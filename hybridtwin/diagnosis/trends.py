@@ -86,20 +86,12 @@ def trend_test(fit: Fit, y, candidates: list[Candidate], correlation, seed: int,
     codes, counts = np.unique(level[rows], return_inverse=True, return_counts=True)[1:]
     if len(counts) < 3:
         return None
+    input_values = [np.asarray(c.values, float)[rows] for c in inputs]
+    row_trend = fit.form.predict(fit.candidate.values)[rows]
     y = np.asarray(y, float)[rows]
-    means = np.bincount(codes, weights=y) / counts
-    within = float(np.sum((y - means[codes]) ** 2)) / max(len(y) - len(counts), 1)
-
-    def level_means(values) -> np.ndarray:
-        return np.bincount(codes, weights=np.asarray(values, float)[rows]) / counts
-
-    level_inputs = np.column_stack([level_means(c.values) for c in inputs])
-    trend = level_means(fit.form.predict(fit.candidate.values))
-
-    def model(regressors):
-        return LevelMeans(means, within / counts, lambda factor: correlation(level_inputs, factor), regressors)
-
-    without, with_trend = model(None), model(trend[:, None])
+    without = LevelMeans.of(codes, counts, y, input_values, correlation)
+    with_trend = LevelMeans.of(codes, counts, y, input_values, correlation, [row_trend])
+    trend = with_trend.regressors[:, 0]
     null = without.best(own=False)
     alternative = with_trend.best(own=False, start=null)
     ratio = max(0.0, 2.0 * (with_trend.loglik(alternative) - without.loglik(null)))
