@@ -86,8 +86,10 @@ def test_runs_are_the_stretches_of_one_coil_cut_in_halves():
 
 
 def test_a_trend_the_test_cannot_see_is_named_as_before():
-    """One short coil per campaign, each at settings of its own: the wear hardly moves within a coil, a smooth
-    function of the inputs takes up the rest, and the test's power says there was nothing to tell."""
+    """One coil per campaign, each at settings of its own, noisy parts: on this committed draw (seed 2) the test's
+    power against the trend as fitted is low, and the trend stays named with the note. The design does not make
+    low power certain (on most other seeds the halves of each coil show the wear); the rule itself is tested
+    with given test results below."""
     frame, y = _campaigns(2, wear=2.0, campaigns=16, coils=1, parts=200, noise=1.0)
     columns = [Candidate.new(c, "input", frame[c].to_numpy(), (c,)) for c in ("x1", "x2")]
     columns += [Candidate.new("coil", "group", frame["coil"].to_numpy(), ("coil",))]
