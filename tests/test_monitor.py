@@ -275,6 +275,15 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
 
 
+def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
+    rng = np.random.default_rng(4)  # a lubrication that scattered from part to part, then set to 2.0 g/m2
+    values = np.r_[rng.normal(1.2, 0.2, 400), rng.normal(2.0, 0.01, 400)]
+    at, low, high = step_of(values, 402)
+    assert abs(at - 400) <= 1 and low == pytest.approx(1.2, abs=0.05) and high == pytest.approx(2.0, abs=0.01)
+    assert step_of(np.r_[rng.normal(1.2, 0.2, 400), np.linspace(2.0, 4.0, 400)], 402) is not None
+    assert step_of(np.linspace(1.2, 4.0, 800) + rng.normal(0, 0.2, 800), 402) is None  # a ramp, with that scatter
+
+
 def test_a_new_coil_that_begins_where_the_change_starts_is_found_and_an_id_per_part_is_not():
     coils = pd.Series(np.repeat(["K1", "K2", "K3"], [150, 200, 150]))
     assert boundary_of(coils, 345) == 350 and boundary_of(coils, 335) is None
@@ -438,6 +447,9 @@ def test_a_setting_whose_new_level_the_shift_outlasts_is_not_named_and_one_it_fo
     kept = frame.assign(shim=np.where(np.arange(4000) >= 1000, 0.55, 0.45) + rng.normal(0, 0.004, 4000))
     kind, column, _ = _named([], kept, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
     assert (kind, column) == (NEW, "shim")  # re-shimmed for good: the shim is the lead, though time fits as well
+    late = frame.assign(shim=np.where(np.arange(4000) >= 1020, 0.55, 0.45) + rng.normal(0, 0.004, 4000))
+    kind, column, _ = _named([], late, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
+    assert (kind, column) == (UNEXPLAINED, None)  # re-shimmed 20 parts after the shift began: not its cause
     further = np.r_[np.full(1000, 0.45), np.full(1200, 0.55), np.full(1800, 0.65)]  # on the same way, not back
     onward = frame.assign(shim=further + rng.normal(0, 0.004, 4000))
     shifted = (noise + 30.0 * (further - 0.45), judged)  # the residual follows the shim

@@ -88,9 +88,11 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     split = np.arange(1, n)
     left = squares[:-1] - total[:-1] ** 2 / split
     right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
-    # a step, not a trend (a die warming up): two levels fit far better than a straight line
+    # a step, not a trend (a die warming up): two levels fit far better than a straight line, beyond the
+    # setting's own scatter from part to part (one side of the step may scatter more than the other)
     line = np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))
-    if np.min(left + right) > 0.25 * np.sum((around - line) ** 2):
+    scatter = n * np.sum(np.diff(around) ** 2) / (2 * (n - 1))
+    if np.min(left + right) - scatter > 0.25 * (np.sum((around - line) ** 2) - scatter):
         return None
     at = first + int(split[np.argmin(left + right)])
     return at, float(np.median(before)), float(np.median(after))
@@ -262,11 +264,11 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     # a step where the change began: at the start, or where the parts not judged right before it began (a setting
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
-    steps = {}
+    steps, began = {}, start if gap < BOUNDARY else start - gap
     if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
-        steps = _steps(frame, start if gap < BOUNDARY else start - gap, timing, KEPT if regime is not None else None)
+        steps = _steps(frame, began, timing, KEPT if regime is not None else None)
     if shifted is not None:
-        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift)}
+        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift, began)}
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -324,18 +326,21 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
     return steps
 
 
-def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float) -> bool:
-    """Whether the shift stays on the parts after the step at which the setting went back from its new level (a
-    campaign that ended: more than half the step back towards the old level): there the setting cannot explain it,
-    time does. ``shifted``: the residual less its level before the start. Too few parts that went back: False (a
-    setting that keeps its new level, or steps on the same way, cannot be told from time)."""
-    at, old, new = step
+def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float, start: int) -> bool:
+    """Whether the shift shows on the parts since ``start`` at which the setting is not at its new level: before
+    it stepped (a setting that moved some parts after the change began), or after it went back (a campaign that
+    ended: more than half the step back towards the old level). There the setting cannot explain it: it is time,
+    or another cause. ``shifted``: the residual less its level before the start. Too few such parts: False (a
+    setting that steps where the change starts and keeps its new level, or steps on the same way, cannot be told
+    from time), or not clearly above their scatter: False."""
+    _, old, new = step
     x = values.to_numpy(float)
-    back = (x - new) * np.sign(new - old) < -abs(new - old) / 2
-    left = judged & back & (np.arange(len(x)) > at)
-    if left.sum() < MIN_BEFORE or shift == 0:
+    not_new = (x - new) * np.sign(new - old) < -abs(new - old) / 2
+    left = judged & not_new & (np.arange(len(x)) >= start)
+    if left.sum() < LEAST_CELL or shift == 0:
         return False
-    return float(np.mean(shifted[left])) / shift > STAYS
+    stays = shifted[left] * np.sign(shift)  # and clearly so, beyond the parts' scatter
+    return float(np.mean(stays)) / abs(shift) > STAYS and np.mean(stays) > 3 * np.std(stays) / np.sqrt(left.sum())
 
 
 def _step_text(name: str, step: tuple[int, float, float]) -> str:
