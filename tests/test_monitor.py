@@ -203,6 +203,25 @@ def test_a_known_cause_moved_when_the_residual_follows_it_by_another_slope_since
     )
 
 
+def test_a_slope_that_moves_between_stretches_of_the_log_sets_how_far_a_batch_may_move_in_control():
+    rng = np.random.default_rng(8)
+    n = 30_000
+    residual, group = _campaigns(rng, n, 150, 1.0)
+    temperature = 40 + 10 * np.sin(np.arange(n) / 700) + rng.normal(0, 0.5, n)
+    judged = np.ones(n, bool)
+    steady = residual + 0.1 * (temperature - 40)
+    assert calibration.slope_spread(temperature, steady, judged, group) < 0.04  # chance alone
+    by_stretch = rng.normal(0.1, 0.1, n // 3000 + 1)[np.arange(n) // 3000]  # the slope of each stretch its own
+    wandering = residual + by_stretch * (temperature - 40)
+    spread = calibration.slope_spread(temperature, wandering, judged, group)
+    assert spread == pytest.approx(0.1, rel=0.5)
+    batch = np.where(np.arange(6000) >= 2000, 0.35, 0.1) * (temperature[:6000] - 40) + residual[:6000]
+    frame = pd.DataFrame({"temp": temperature[:6000]})
+    fitted, error = 0.1, 0.005  # the log's slope, as the standard error clustered by regime sees it
+    assert moved_cause(frame, batch, judged[:6000], group[:6000], 2000, {"temp": [fitted, error]}, 0.5) is not None
+    assert moved_cause(frame, batch, judged[:6000], group[:6000], 2000, {"temp": [fitted, error, spread]}, 0.5) is None
+
+
 def test_coil_ids_of_a_new_form_name_a_supplier_and_a_shift_label_does_not():
     ids = pd.Series([f"K{1000 + i // 200}" for i in range(3000)] + [f"NEW-K{2000 + i // 200}" for i in range(2000)])
     assert new_form(ids, 3400) == 3000 and new_form(ids, 2000) is None  # found late: the change began there

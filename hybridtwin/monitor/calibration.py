@@ -37,6 +37,7 @@ LEVEL_MARGIN = 2.0
 FLOOR_WITHIN = 17.5
 FLOOR_LEVEL = 7.0
 BLOCK_PARTS = 1000  # the bootstrap draws runs of consecutive regimes at least this long
+SPREAD_PARTS = 3000  # stretches of the log between which a cause's slope is compared (about a third of a batch)
 LEAST_SCALE = 200  # judged within-regime parts a region needs for a scatter of its own
 
 
@@ -68,19 +69,26 @@ def scales(raw, z, region, group, levels) -> tuple[dict, float, float, float]:
     return per_region, pooled, level_within, float(between)
 
 
+def _blocks(starts: np.ndarray, least: int) -> list[tuple[int, int]]:
+    """(first, end) of consecutive runs of whole regimes (``starts``: True where a regime begins) of at least
+    ``least`` parts each; a short tail joins the block before."""
+    bounds = [0]
+    for cut in np.flatnonzero(starts)[1:]:
+        if cut - bounds[-1] >= least:
+            bounds.append(int(cut))
+    if len(bounds) > 1 and len(starts) - bounds[-1] < least / 2:
+        bounds.pop()
+    bounds.append(len(starts))
+    return list(zip(bounds[:-1], bounds[1:]))
+
+
 def limits(within: np.ndarray, level: np.ndarray, starts: np.ndarray, seed: int) -> tuple[float, float]:
     """Each chart's limit from batches drawn from the log (``within``, ``level``: the charts' standardized steps
     over the log) in blocks of whole regimes of at least BLOCK_PARTS parts, so that regimes that follow each other
     (a campaign over several coils) stay together."""
-    bounds = [0]
-    for cut in np.flatnonzero(starts)[1:]:
-        if cut - bounds[-1] >= BLOCK_PARTS:
-            bounds.append(int(cut))
-    if len(bounds) > 1 and len(starts) - bounds[-1] < BLOCK_PARTS / 2:  # a short tail joins the block before
-        bounds.pop()
-    bounds = np.r_[bounds, len(starts)]
-    pieces = [(within[a:b], level[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
-    lengths = np.diff(bounds)
+    bounds = _blocks(starts, BLOCK_PARTS)
+    pieces = [(within[a:b], level[a:b]) for a, b in bounds]
+    lengths = np.array([b - a for a, b in bounds])
     rng = np.random.default_rng(seed)
     highest = [0.0, 0.0]
     draws = int(np.ceil(BATCH_PARTS / max(lengths.min(), 1.0))) + 1
@@ -113,9 +121,10 @@ def constants(
 
 
 def slopes(log, causes, residual, z, group) -> dict:
-    """Per numeric cause of the models' extension (no clock): the log's slope of the honest residual on it and
-    its standard error clustered by regime: how the in-control residual follows the cause
-    (:func:`changes.moved_cause` compares a batch's with it)."""
+    """Per numeric cause of the models' extension (no clock): the log's slope of the honest residual on it, its
+    standard error clustered by regime, and how far the slope moves between stretches of the log beyond that
+    error (:func:`slope_spread`): how the in-control residual follows the cause (:func:`changes.moved_cause`
+    compares a batch's with it)."""
     from hybridtwin.monitor.changes import clocks, slope
 
     timing = clocks(log)
@@ -123,10 +132,32 @@ def slopes(log, causes, residual, z, group) -> dict:
     out = {}
     for column in sorted(causes):
         if column in log and column not in timing and pd.api.types.is_numeric_dtype(log[column]):
-            fitted, error = slope(log[column].to_numpy(float)[judged], residual[judged], group[judged])
+            x = log[column].to_numpy(float)
+            fitted, error = slope(x[judged], residual[judged], group[judged])
             if np.isfinite(error):
-                out[str(column)] = [fitted, error]
+                out[str(column)] = [fitted, error, slope_spread(x, residual, judged, group)]
     return out
+
+
+def slope_spread(x, residual, judged, group) -> float:
+    """The spread of the residual's slope on ``x`` between stretches of the log (runs of whole regimes of at
+    least SPREAD_PARTS parts) beyond their standard errors: the DerSimonian-Laird between-study deviation. In
+    control the slope moves from stretch to stretch with the models' settled errors at the settings each one
+    ran, which the standard error clustered by regime does not count."""
+    from hybridtwin.monitor.changes import slope
+
+    group = np.asarray(group)
+    starts = np.r_[True, group[1:] != group[:-1]]
+    bounds = _blocks(starts, SPREAD_PARTS)
+    fits = [slope(x[a:b][judged[a:b]], residual[a:b][judged[a:b]], group[a:b][judged[a:b]]) for a, b in bounds]
+    fits = np.array([(value, error) for value, error in fits if np.isfinite(error) and error > 0]).reshape(-1, 2)
+    if len(fits) < 3:
+        return 0.0
+    weights = 1.0 / fits[:, 1] ** 2
+    mean = np.sum(weights * fits[:, 0]) / weights.sum()
+    q = np.sum(weights * (fits[:, 0] - mean) ** 2)
+    between = (q - (len(fits) - 1)) / (weights.sum() - np.sum(weights**2) / weights.sum())
+    return float(np.sqrt(max(between, 0.0)))
 
 
 def counters(log) -> list[str]:

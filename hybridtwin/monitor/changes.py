@@ -136,14 +136,16 @@ def slope(x, residual, cells) -> tuple[float, float]:
 def slope_change(x, residual, judged, group, start: int, log=None) -> tuple[float, float]:
     """How differently the residual follows ``x`` since ``start`` than in control: (the change over the range of
     x since the start, in standard errors clustered by regime). In control is the batch's parts before the start,
-    pooled with ``log`` (the log's slope and its standard error) if given; (0, 0) without enough parts."""
+    pooled with ``log`` (the log's slope, its standard error and its spread between stretches of the log, which
+    the batch's slope may move by in control too) if given; (0, 0) without enough parts."""
     after = judged & (np.arange(len(residual)) >= start)
     before = judged & ~after
     if after.sum() < 3 * LEAST_CELL:
         return 0.0, 0.0
     x = np.asarray(x, float)
     slope_after, error_after = slope(x[after], residual[after], group[after])
-    known = [tuple(log)] if log is not None else []
+    known = [tuple(log[:2])] if log is not None else []
+    spread = float(log[2]) if log is not None and len(log) > 2 else 0.0
     if before.sum() >= 3 * LEAST_CELL:
         known.append(slope(x[before], residual[before], group[before]))
     weights = np.array([1.0 / error**2 if np.isfinite(error) and error > 0 else 0.0 for _, error in known])
@@ -151,7 +153,7 @@ def slope_change(x, residual, judged, group, start: int, log=None) -> tuple[floa
         return 0.0, 0.0
     in_control = float(np.sum(weights * [value for value, _ in known]) / weights.sum())
     low, high = np.quantile(x[after], [0.05, 0.95])
-    error = float(np.hypot(error_after, 1.0 / np.sqrt(weights.sum())))
+    error = float(np.sqrt(error_after**2 + 1.0 / weights.sum() + spread**2))
     return (slope_after - in_control) * (high - low), abs(slope_after - in_control) / error if error > 0 else 0.0
 
 
@@ -163,7 +165,7 @@ def moved(change: tuple[float, float], scale: float) -> bool:
 def moved_cause(frame: pd.DataFrame, residual, judged, group, start: int, reference: dict, scale: float):
     """A known cause (a numeric column of the models' extension) whose effect moved at ``start``: since the start
     the residual follows the column by another slope than in control (the log's, stored with the models in
-    ``reference``: column -> (slope, standard error), pooled with the batch's parts before the start).
+    ``reference``: column -> (slope, standard error, spread), pooled with the batch's parts before the start).
     (column, the effect's change over the column's range since the start) or None."""
     best = None
     for column, log in reference.items():
