@@ -449,7 +449,7 @@ def test_a_shift_over_the_levels_is_dated_where_it_began_when_levels_drifted_the
     assert result.start_at == 3000
 
 
-def test_a_setting_whose_new_level_the_shift_outlasts_is_not_named_and_one_it_follows_is(predictor):
+def test_a_setting_whose_new_level_the_shift_does_not_follow_is_not_named_and_one_it_follows_is(predictor):
     from hybridtwin.monitor.changes import _named
 
     rng = np.random.default_rng(11)

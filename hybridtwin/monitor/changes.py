@@ -243,7 +243,7 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     """(kind, column, text) from the causes the diagnosis found; ``gap``: parts right before the start that were
     not judged (the change began during them: no setting or coil can be dated to the start); ``shifted``: (the
     residual less its level before the start, the judged parts), to drop a setting that stepped where the change
-    began but whose new level the shift outlasts (:func:`outlasted`).
+    began but whose new level the shift does not follow (:func:`shift_without_setting`).
 
     With the regime charts, ``known_moved``: a known cause whose slope changed (:func:`moved_cause`); ``regime``:
     (residual, judged, group, scale). The settled levels of the regimes are the models' own error, which a coil id
@@ -270,7 +270,11 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
         steps = _steps(frame, began, timing, KEPT if regime is not None else None)
     if shifted is not None:
-        steps = {name: step for name, step in steps.items() if not outlasted(frame[name], step, *shifted, shift, began)}
+        steps = {
+            name: step
+            for name, step in steps.items()
+            if not shift_without_setting(frame[name], step, *shifted, shift, began)
+        }
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -328,13 +332,13 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
     return steps
 
 
-def outlasted(values: pd.Series, step: tuple[int, float, float], shifted, judged, shift: float, start: int) -> bool:
+def shift_without_setting(values: pd.Series, step: tuple, shifted, judged, shift: float, start: int) -> bool:
     """Whether the shift shows on the parts since ``start`` at which the setting is not at its new level: before
     it stepped (a setting that moved some parts after the change began), or after it went back (a campaign that
     ended: more than half the step back towards the old level). There the setting cannot explain it: it is time,
-    or another cause. ``shifted``: the residual less its level before the start. Too few such parts: False (a
-    setting that steps where the change starts and keeps its new level, or steps on the same way, cannot be told
-    from time), or not clearly above their scatter: False."""
+    or another cause. ``shifted``: the residual less its level before the start. False with fewer than LEAST_CELL
+    such parts, or a shift there not clearly above their scatter (a setting that steps where the change starts
+    and keeps its new level, or steps on the same way, cannot be told from time)."""
     _, old, new = step
     x = values.to_numpy(float)
     not_new = (x - new) * np.sign(new - old) < -abs(new - old) / 2
