@@ -11,7 +11,7 @@ from hybridtwin.answers.predictor import Predictor
 from hybridtwin.cli import main
 from hybridtwin.io.errors import InputError
 from hybridtwin.monitor import calibration, chart, regimes, watch, words
-from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, moved_cause, new_form, step_of
+from hybridtwin.monitor.changes import NEW, UNEXPLAINED, boundary_of, clocks, moved_cause, new_form, slope, step_of
 
 from .conftest import says
 
@@ -203,6 +203,18 @@ def test_a_known_cause_moved_when_the_residual_follows_it_by_another_slope_since
     )
 
 
+def _stretches(n: int, length: int) -> list[tuple[int, int]]:
+    return [(a, min(a + length, n)) for a in range(0, n, length)]
+
+
+def test_stretches_of_the_log_hold_whole_regimes_enough_parts_and_enough_regimes():
+    short = np.arange(30_000) % 150 == 0  # regimes of 150 parts: 3,000 parts hold 20 of them
+    assert calibration._blocks(short, 3000, 10) == _stretches(30_000, 3000)
+    long = np.arange(30_000) % 1000 == 0  # of 1,000 parts: ten regimes make a stretch
+    assert calibration._blocks(long, 3000, 10) == _stretches(30_000, 10_000)
+    assert calibration._blocks(np.arange(24_000) % 1000 == 0, 3000, 10) == [(0, 10_000), (10_000, 24_000)]
+
+
 def test_a_slope_that_moves_between_stretches_of_the_log_sets_how_far_a_batch_may_move_in_control():
     rng = np.random.default_rng(8)
     n = 30_000
@@ -215,6 +227,11 @@ def test_a_slope_that_moves_between_stretches_of_the_log_sets_how_far_a_batch_ma
     wandering = residual + by_stretch * (temperature - 40)
     spread = calibration.slope_spread(temperature, wandering, judged, group)
     assert spread == pytest.approx(0.1, rel=0.5)
+    # by hand: the stretches' slopes and errors, and the method of moments on Cochran's Q
+    fits = np.array([slope(temperature[a:b], wandering[a:b], group[a:b]) for a, b in _stretches(n, 3000)])
+    w = fits[:, 1] ** -2.0
+    q = np.sum(w * fits[:, 0] ** 2) - np.sum(w * fits[:, 0]) ** 2 / np.sum(w)
+    assert spread**2 == pytest.approx((q - (len(w) - 1)) / (np.sum(w) - np.sum(w**2) / np.sum(w)), rel=1e-9)
     batch = np.where(np.arange(6000) >= 2000, 0.35, 0.1) * (temperature[:6000] - 40) + residual[:6000]
     frame = pd.DataFrame({"temp": temperature[:6000]})
     fitted, error = 0.1, 0.005  # the log's slope, as the standard error clustered by regime sees it
@@ -301,6 +318,10 @@ def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
     assert abs(at - 400) <= 1 and low == pytest.approx(1.2, abs=0.05) and high == pytest.approx(2.0, abs=0.01)
     assert step_of(np.r_[rng.normal(1.2, 0.2, 400), np.linspace(2.0, 4.0, 400)], 402) is not None
     assert step_of(np.linspace(1.2, 4.0, 800) + rng.normal(0, 0.2, 800), 402) is None  # a ramp, with that scatter
+    # a die warming slowly, its scatter from part to part larger than its rise over a hundred parts
+    warming = 20 + 0.005 * np.arange(2000) + np.random.default_rng(1).normal(0, 0.2, 2000)
+    assert step_of(warming, 600, kept=1000) is None
+    assert step_of(np.where(np.arange(800) == 420, np.nan, values), 402) is None  # a part not logged: no date
 
 
 def test_a_new_coil_that_begins_where_the_change_starts_is_found_and_an_id_per_part_is_not():
@@ -469,6 +490,13 @@ def test_a_setting_whose_new_level_the_shift_does_not_follow_is_not_named_and_on
     late = frame.assign(shim=np.where(np.arange(4000) >= 1020, 0.55, 0.45) + rng.normal(0, 0.004, 4000))
     kind, column, _ = _named([], late, 1000, predictor, 3.0, "mm", regime=regime, shifted=(stays, judged))
     assert (kind, column) == (UNEXPLAINED, None)  # re-shimmed 20 parts after the shift began: not its cause
+    falls = -stays  # the same, the residual falling
+    kind, column, _ = _named([], late, 1000, predictor, -3.0, "mm", regime=regime, shifted=(falls, judged))
+    assert (kind, column) == (UNEXPLAINED, None)
+    wild = np.tile([22.0, -18.0], 2000)  # the 20 parts before the shim's step: two thirds of the shift, but wild
+    unclear = np.where(np.arange(4000) < 1020, wild, stays)
+    kind, column, _ = _named([], late, 1000, predictor, 3.0, "mm", regime=regime, shifted=(unclear, judged))
+    assert (kind, column) == (NEW, "shim")
     further = np.r_[np.full(1000, 0.45), np.full(1200, 0.55), np.full(1800, 0.65)]  # on the same way, not back
     onward = frame.assign(shim=further + rng.normal(0, 0.004, 4000))
     shifted = (noise + 30.0 * (further - 0.45), judged)  # the residual follows the shim

@@ -38,6 +38,7 @@ FLOOR_WITHIN = 17.5
 FLOOR_LEVEL = 7.0
 BLOCK_PARTS = 1000  # the bootstrap draws runs of consecutive regimes at least this long
 SPREAD_PARTS = 3000  # stretches of the log between which a cause's slope is compared (about a third of a batch)
+SPREAD_REGIMES = 10  # and the regimes each holds at least
 LEAST_SCALE = 200  # judged within-regime parts a region needs for a scatter of its own
 
 
@@ -69,14 +70,15 @@ def scales(raw, z, region, group, levels) -> tuple[dict, float, float, float]:
     return per_region, pooled, level_within, float(between)
 
 
-def _blocks(starts: np.ndarray, least: int) -> list[tuple[int, int]]:
-    """(first, end) of consecutive runs of whole regimes (``starts``: True where a regime begins) of at least
-    ``least`` parts each; a short tail joins the block before."""
-    bounds = [0]
-    for cut in np.flatnonzero(starts)[1:]:
-        if cut - bounds[-1] >= least:
+def _blocks(starts: np.ndarray, least: int, regimes: int = 1) -> list[tuple[int, int]]:
+    """(first, end) of consecutive runs of whole regimes (``starts``: True where a regime begins), each of at
+    least ``least`` parts and ``regimes`` regimes; a short tail joins the block before."""
+    bounds, begun = [0], np.flatnonzero(starts)
+    for cut in begun[1:]:
+        if cut - bounds[-1] >= least and np.sum((begun >= bounds[-1]) & (begun < cut)) >= regimes:
             bounds.append(int(cut))
-    if len(bounds) > 1 and len(starts) - bounds[-1] < least / 2:
+    tail = len(starts) - bounds[-1]
+    if len(bounds) > 1 and (tail < least / 2 or np.sum(begun >= bounds[-1]) < regimes / 2):
         bounds.pop()
     bounds.append(len(starts))
     return list(zip(bounds[:-1], bounds[1:]))
@@ -140,15 +142,17 @@ def slopes(log, causes, residual, z, group) -> dict:
 
 
 def slope_spread(x, residual, judged, group) -> float:
-    """The spread of the residual's slope on ``x`` between stretches of the log (runs of whole regimes of at
-    least SPREAD_PARTS parts) beyond their standard errors: the DerSimonian-Laird between-study deviation. In
-    control the slope moves from stretch to stretch with the models' settled errors at the settings each one
-    ran, which the standard error clustered by regime does not count."""
+    """The spread of the residual's slope on ``x`` between stretches of the log beyond their standard errors: the
+    DerSimonian-Laird between-study deviation. In control the slope moves from stretch to stretch with the models'
+    settled errors at the settings each one ran, which the standard error clustered by regime does not count.
+    A stretch is a run of whole regimes as the charts cut them (``group``: ids, settings and the recommended
+    model) of at least SPREAD_PARTS parts and SPREAD_REGIMES regimes (a clustered error needs clusters); 0 with
+    fewer than three stretches."""
     from hybridtwin.monitor.changes import slope
 
     group = np.asarray(group)
     starts = np.r_[True, group[1:] != group[:-1]]
-    bounds = _blocks(starts, SPREAD_PARTS)
+    bounds = _blocks(starts, SPREAD_PARTS, SPREAD_REGIMES)
     fits = [slope(x[a:b][judged[a:b]], residual[a:b][judged[a:b]], group[a:b][judged[a:b]]) for a, b in bounds]
     fits = np.array([(value, error) for value, error in fits if np.isfinite(error) and error > 0]).reshape(-1, 2)
     if len(fits) < 3:

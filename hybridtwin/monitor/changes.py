@@ -78,6 +78,8 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     before, after = values[max(0, start - window) : start], values[start : start + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
+    if not (np.isfinite(before).all() and np.isfinite(after).all()):  # a setting not logged on every part
+        return None
     low, high = np.quantile(before, [0.005, 0.995])
     if np.mean((after < low) | (after > high)) < 0.9:
         return None
@@ -88,11 +90,12 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     split = np.arange(1, n)
     left = squares[:-1] - total[:-1] ** 2 / split
     right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
-    # a step, not a trend (a die warming up): two levels fit far better than a straight line, beyond the
-    # setting's own scatter from part to part (one side of the step may scatter more than the other)
-    line = np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))
+    # a step, not a trend (a die warming up): a straight line leaves a misfit beyond the setting's own scatter from
+    # part to part (at least as large again), and two levels take far the most of it (one side of a step may
+    # scatter more than the other)
+    line = np.sum((around - np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))) ** 2)
     scatter = n * np.sum(np.diff(around) ** 2) / (2 * (n - 1))
-    if np.min(left + right) - scatter > 0.25 * (np.sum((around - line) ** 2) - scatter):
+    if line < 2 * scatter or np.min(left + right) - scatter > 0.25 * (line - scatter):
         return None
     at = first + int(split[np.argmin(left + right)])
     return at, float(np.median(before)), float(np.median(after))
