@@ -237,6 +237,8 @@ def test_a_slope_that_moves_between_stretches_of_the_log_sets_how_far_a_batch_ma
     fitted, error = 0.1, 0.005  # the log's slope, as the standard error clustered by regime sees it
     assert moved_cause(frame, batch, judged[:6000], group[:6000], 2000, {"temp": [fitted, error]}, 0.5) is not None
     assert moved_cause(frame, batch, judged[:6000], group[:6000], 2000, {"temp": [fitted, error, spread]}, 0.5) is None
+    grown = np.where(np.arange(6000) >= 2000, 1.0, 0.1) * (temperature[:6000] - 40) + residual[:6000]
+    assert moved_cause(frame, grown, judged[:6000], group[:6000], 2000, {"temp": [fitted, error, spread]}, 0.5)
 
 
 def test_coil_ids_of_a_new_form_name_a_supplier_and_a_shift_label_does_not():
@@ -319,7 +321,7 @@ def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
     assert step_of(np.r_[rng.normal(1.2, 0.2, 400), np.linspace(2.0, 4.0, 400)], 402) is not None
     assert step_of(np.linspace(1.2, 4.0, 800) + rng.normal(0, 0.2, 800), 402) is None  # a ramp, with that scatter
     # a die warming slowly, its scatter from part to part larger than its rise over a hundred parts
-    warming = 20 + 0.005 * np.arange(2000) + np.random.default_rng(1).normal(0, 0.2, 2000)
+    warming = 20 + 0.005 * np.arange(2000) + np.random.default_rng(4).normal(0, 0.2, 2000)
     assert step_of(warming, 600, kept=1000) is None
     assert step_of(np.where(np.arange(800) == 420, np.nan, values), 402) is None  # a part not logged: no date
 
