@@ -269,15 +269,7 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     # a step where the change began: at the start, or where the parts not judged right before it began (a setting
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
-    steps, began = {}, start if gap < BOUNDARY else start - gap
-    if gap <= WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
-        steps = _steps(frame, began, timing, KEPT if regime is not None else None)
-    if shifted is not None:
-        steps = {
-            name: step
-            for name, step in steps.items()
-            if not shift_without_setting(frame[name], step, *shifted, shift, began)
-        }
+    steps = _dated_steps(frame, start, gap, timing, regime is not None, shifted, shift)
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -320,6 +312,22 @@ def _slope_changed(found: list, frame: pd.DataFrame, start: int, timing: set, re
         return moved(slope_change(frame[columns[0]], residual, judged, group, start), scale)
 
     return [fit for fit in found if holds(fit)]
+
+
+def _dated_steps(frame, start: int, gap: int, timing: set, charts: bool, shifted, shift: float) -> dict:
+    """The settings that step where the change began (:func:`_steps`; with the regime ``charts``, to a level they
+    keep KEPT parts), less those whose new level the shift does not follow (:func:`shift_without_setting`)."""
+    began = start if gap < BOUNDARY else start - gap
+    if gap > WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
+        return {}
+    steps = _steps(frame, began, timing, KEPT if charts else None)
+    if shifted is None:
+        return steps
+    return {
+        name: step
+        for name, step in steps.items()
+        if not shift_without_setting(frame[name], step, *shifted, shift, began)
+    }
 
 
 def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None) -> dict:
