@@ -18,6 +18,11 @@ calibration error; and with the monitor's k and h), river's ADWIN and Page-Hinkl
 defaults). Then 100,000 parts through the command, timed.
 
     python benchmarks/monitor_bank.py --plants 3 --seed 35      # about 4 minutes a plant, alone on 2 cores
+    python benchmarks/monitor_bank.py --plants 6 --seed 38 --generator structures --keep runs/bank38
+    python benchmarks/monitor_bank.py --replay runs/bank38      # the changes named again with today's code
+
+``--keep`` leaves each plant's workflow run and its changed batches in the folder; ``--replay`` names their
+changes again (a change of the explanation after an alarm, judged in minutes on the same models and batches).
 
 Writes benchmarks/results/monitor_bank.csv (a row per batch and method) and monitor_bank.md (the summary).
 """
@@ -25,6 +30,8 @@ Writes benchmarks/results/monitor_bank.csv (a row per batch and method) and moni
 from __future__ import annotations
 
 import argparse
+import contextlib
+import json
 import subprocess
 import sys
 import tempfile
@@ -149,13 +156,46 @@ def draw(generator: str, index: int, seed: int, n_production: int):
     return families.draw_plant(family, seed * 100 + index, n_production=n_production), family
 
 
-def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list, generator: str) -> list[dict]:
+def _plant_folder(keep: Path | None, index: int):
+    """Where a plant's workflow runs: a scratch folder, or with ``--keep`` one that stays (``keep``/p<index>)."""
+    if keep is None:
+        return tempfile.TemporaryDirectory()
+    (keep / f"p{index}").mkdir(parents=True, exist_ok=True)
+    return contextlib.nullcontext(str(keep / f"p{index}"))
+
+
+def _kept(folder: Path, plant: str, batches: list[tuple]) -> None:
+    """The changed batches with a cause to name, as parquet files beside the plant's run, and what each must
+    be named (meta.json), for ``--replay``."""
+    listed = []
+    for number, kind, altered, column, verdict in batches:
+        name = f"b{number}_{kind.replace(' ', '_')}.parquet"
+        altered.to_parquet(folder / name)
+        listed.append({"file": name, "kind": kind, "column": column, "verdict": verdict})
+    (folder / "meta.json").write_text(json.dumps({"plant": plant, "batches": listed}, indent=1))
+
+
+def replay(keep: Path) -> pd.DataFrame:
+    """The monitor's rows of the kept changed batches (``--keep``) with today's code: the alarms and the change
+    named, in seconds, on the models the kept run built."""
+    rows = []
+    for folder in sorted(keep.glob("p*")):
+        meta = json.loads((folder / "meta.json").read_text())
+        predictor = Predictor.load(folder / "results" / "models")
+        for batch in meta["batches"]:
+            altered = pd.read_parquet(folder / batch["file"])
+            args = (meta["plant"], batch["kind"], START, batch["column"], batch["verdict"], pooled_scale(predictor))
+            rows += [row for row in _rows(predictor, altered, *args) if row["method"] == "monitor"]
+    return pd.DataFrame(rows)
+
+
+def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list, generator: str, keep=None) -> list:
     n_fresh = max(n_batches * BATCH, TIMED if index == 0 else 0)
     case, family = draw(generator, index, seed, n_log + n_fresh)
     log, fresh = case.production.iloc[:n_log], case.production.iloc[n_log:].reset_index(drop=True)
     rng = np.random.default_rng([seed, index])
-    rows = []
-    with tempfile.TemporaryDirectory() as scratch:
+    rows, named = [], []
+    with _plant_folder(keep, index) as scratch:
         matched = matched_cases(case.doe, log, case.inputs, case.target, rng, plant_simulator(case))
         models = run_workflow(Path(scratch), case.doe, log, matched, case.inputs, case.target, seed)
         predictor = Predictor.load(models)
@@ -173,6 +213,7 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list,
                 if altered is None:
                     continue
                 rows += _rows(predictor, altered, plant, kind, START, column, verdict, scale)
+                named += [(number, kind, altered, column, verdict)] if verdict else []
         stored = predictor.spec.get("monitor", {})
         for row in rows:  # what the log set: the charts' limits, the scatter inside a regime against the noise
             row.update({key: stored.get(key, np.nan) for key in ("within_limit", "level_limit", "level_between")})
@@ -180,6 +221,8 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list,
             row["regimes_in_log"] = ", ".join(stored.get("regimes", {}).get("columns", []))
         if index == 0:
             timings.append(timing(models, fresh.iloc[:TIMED], Path(scratch)))
+        if keep is not None:
+            _kept(Path(scratch), plant, named)
         print(f"{plant}: {len(rows)} rows", flush=True)
     return rows
 
@@ -275,12 +318,17 @@ def main() -> None:
     parser.add_argument("--batches", type=int, default=7, help="in-control batches of 10,000 parts per plant")
     parser.add_argument("--name", default="monitor_bank", help="the results' file name (.csv, .md)")
     parser.add_argument("--generator", choices=("families", "structures"), default="families")
+    parser.add_argument("--keep", type=Path, help="keep each plant's run and its changed batches in this folder")
+    parser.add_argument("--replay", type=Path, help="only name the changes of a --keep folder's batches again")
     args = parser.parse_args()
+    if args.replay:
+        print("\n".join(_named(replay(args.replay))))
+        return
     # the commit the run starts at (a commit made while it runs must not be credited with its numbers)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT)
     rows, timings = [], []
     for index in range(args.plants):
-        rows += plant_rows(index, args.seed, args.log, args.batches, timings, args.generator)
+        rows += plant_rows(index, args.seed, args.log, args.batches, timings, args.generator, args.keep)
     table = pd.DataFrame(rows)
     OUT.mkdir(parents=True, exist_ok=True)
     table.to_csv(OUT / f"{args.name}.csv", index=False)
