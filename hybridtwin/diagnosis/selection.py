@@ -104,6 +104,11 @@ class Selection:
     def names(self) -> set[str]:
         return {fit.candidate.name for fit in self.chosen}
 
+    @property
+    def settled(self) -> set[str]:
+        """The columns chosen, and the trends in time set aside as following the settings."""
+        return self.names | set(self.follows_inputs)
+
     def refit(self) -> None:
         """Joint fit of the chosen causes; what they leave, and every other candidate's fit to it."""
         models, _ = forms.backfit([s.candidate.values for s in self.chosen], [s.form.name for s in self.chosen], self.y)
@@ -170,7 +175,7 @@ class Selection:
     def pool(self) -> list[Fit]:
         """The candidates' fits given the chosen causes, less those chosen and the pairs that are no interaction
         (their product does not beat their two columns, or gave way to one of them with the other causes in)."""
-        left_out = self.names | self.no_interaction | set(self.follows_inputs)
+        left_out = self.settled | self.no_interaction
         return [f for n, f in self.conditional.items() if n not in left_out and f.form.name != forms.Additive.name]
 
     def _next_smooth(self, pool: list[Fit]) -> Fit | None:
@@ -334,8 +339,7 @@ class Selection:
             return self._product_to_column(j, rest)
         again = self.rules.best_fit(fit.candidate, rest)
         if fit.candidate.kind == "time":  # time against the logged quantities again, with the other causes in
-            left_out = self.names | set(self.follows_inputs)
-            logged = [c for c in self.candidates if c.kind in ("input", "log") and c.name not in left_out]
+            logged = [c for c in self.candidates if c.kind in ("input", "log") and c.name not in self.settled]
             again = prefer_simpler(again, [again] + [self.rules.best_fit(c, rest) for c in logged], rest, self.rules)
         if (again.candidate.name, again.form.name) != (fit.candidate.name, fit.form.name) and self.rules.significant(
             again
@@ -369,8 +373,7 @@ class Selection:
         others = [
             c
             for c in self.candidates
-            if c.kind in ("input", "log", "time")
-            and c.name not in self.names | set(self.follows_inputs) | {column.candidate.name}
+            if c.kind in ("input", "log", "time") and c.name not in self.settled | {column.candidate.name}
         ]
         rivals = [fit for fit in self.rules.fit_all(others, rest).values() if self.rules.significant(fit)]
         strongest = min(rivals + [column], key=self._rank)

@@ -192,7 +192,7 @@ def summary_dict(result: Diagnosis) -> dict:
             name: {"id": group, "levels": levels, "p_value": p_value}
             for name, (group, levels, p_value) in result.by_chance.items()
         },
-        # trends in time that showed nothing between parts run at the same settings: column -> p-value
+        # trends in time that showed nothing between parts run at the same settings: column -> its test
         "follows_inputs": {name: test._asdict() for name, test in result.follows_inputs.items()},
         # chosen trends in time that the test between parts at the same settings could not see
         "untold_trends": {name: test._asdict() for name, test in result.untold_trends.items()},
