@@ -182,9 +182,10 @@ def replay(keep: Path) -> pd.DataFrame:
     for folder in sorted(keep.glob("p*")):
         meta = json.loads((folder / "meta.json").read_text())
         predictor = Predictor.load(folder / "results" / "models")
+        scale = pooled_scale(predictor)
         for batch in meta["batches"]:
             altered = pd.read_parquet(folder / batch["file"])
-            args = (meta["plant"], batch["kind"], START, batch["column"], batch["verdict"], pooled_scale(predictor))
+            args = (meta["plant"], batch["kind"], START, batch["column"], batch["verdict"], scale)
             rows += [row for row in _rows(predictor, altered, *args) if row["method"] == "monitor"]
     return pd.DataFrame(rows)
 

@@ -105,9 +105,9 @@ def limits(within: np.ndarray, level: np.ndarray, starts: np.ndarray, seed: int)
 
 def constants(
     log, inputs, residual, z, region, models, seed: int = 0
-) -> tuple[regimes.Regimes, chart.Constants, np.ndarray]:
-    """The regimes, the charts' constants and each part's regime label, from the log (in time order), its honest
-    residuals and z, each part's interval region and recommended model."""
+) -> tuple[regimes.Regimes, chart.Constants, np.ndarray, np.ndarray]:
+    """The regimes, the charts' constants, each part's regime label and where each regime begins, from the log
+    (in time order), its honest residuals and z, each part's interval region and recommended model."""
     found = regimes.Regimes.learn(log, inputs)
     starts = found.starts(log)
     group = regimes.labels(starts, models)
@@ -119,10 +119,10 @@ def constants(
     within = chart.within_steps(residual, region, group, provisional, raw)
     level = chart.level_steps(z, group, provisional, levels)
     h_within, h_level = limits(within, level, starts, seed)
-    return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level), group
+    return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level), group, starts
 
 
-def slopes(log, causes, residual, z, group) -> dict:
+def slopes(log, causes, residual, z, group, starts) -> dict:
     """Per numeric cause of the models' extension (no clock): the log's slope of the honest residual on it, its
     standard error clustered by regime, and how far the slope moves between stretches of the log beyond that
     error (:func:`slope_spread`): how the in-control residual follows the cause (:func:`changes.moved_cause`
@@ -137,21 +137,20 @@ def slopes(log, causes, residual, z, group) -> dict:
             x = log[column].to_numpy(float)
             fitted, error = slope(x[judged], residual[judged], group[judged])
             if np.isfinite(error):
-                out[str(column)] = [fitted, error, slope_spread(x, residual, judged, group)]
+                out[str(column)] = [fitted, error, slope_spread(x, residual, judged, group, starts)]
     return out
 
 
-def slope_spread(x, residual, judged, group) -> float:
+def slope_spread(x, residual, judged, group, starts) -> float:
     """The spread of the residual's slope on ``x`` between stretches of the log beyond their standard errors: the
     DerSimonian-Laird between-study deviation. In control the slope moves from stretch to stretch with the models'
     settled errors at the settings each one ran, which the standard error clustered by regime does not count.
-    A stretch is a run of whole regimes as the charts cut them (``group``: ids, settings and the recommended
-    model) of at least SPREAD_PARTS parts and SPREAD_REGIMES regimes (a clustered error needs clusters); 0 with
-    fewer than three stretches."""
+    A stretch is a run of whole regimes (``starts``: True where one begins) of at least SPREAD_PARTS parts and
+    SPREAD_REGIMES regimes (a clustered error needs clusters; ``group``: the regime and model labels it clusters
+    by); 0 with fewer than three stretches."""
     from hybridtwin.monitor.changes import slope
 
     group = np.asarray(group)
-    starts = np.r_[True, group[1:] != group[:-1]]
     bounds = _blocks(starts, SPREAD_PARTS, SPREAD_REGIMES)
     fits = [slope(x[a:b][judged[a:b]], residual[a:b][judged[a:b]], group[a:b][judged[a:b]]) for a, b in bounds]
     fits = np.array([(value, error) for value, error in fits if np.isfinite(error) and error > 0]).reshape(-1, 2)
@@ -181,11 +180,11 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
     z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
     models = picked["recommended_model"].to_numpy(object)
-    found, fitted, group = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
+    found, fitted, group, starts = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
     return {
         "regimes": found.to_dict(),
         **fitted.to_dict(),
-        "slopes": slopes(log, causes, residual, z, group),
+        "slopes": slopes(log, causes, residual, z, group, starts),
         "counters": counters(log),
         "limit": chart.LIMIT,
         "log_parts": int(usable.sum()),
