@@ -147,6 +147,16 @@ def judge(watched, column, kind) -> bool:
     return change.kind == kind and (kind == UNEXPLAINED or change.column == column)
 
 
+def named_at_departure(watched, column, start: int) -> bool:
+    """Whether, with no alarm after ``start``, the monitor says the batch left the settings the models can judge
+    where the change began (within ten parts) and names the stepped setting: no chart can judge those parts, and
+    the answer names the setting (a step in a setting only)."""
+    left, alarm = watched.departure, watched.chart.alarm_at
+    if left is None or column is None or (alarm is not None and alarm >= start):
+        return False
+    return abs(left.start_part - 1 - start) <= 10 and column in left.columns
+
+
 def draw(generator: str, index: int, seed: int, n_production: int):
     """The index-th plant of a generator, and its name."""
     if generator == "structures":
@@ -239,9 +249,13 @@ def _rows(predictor, batch, plant, kind, start, column, verdict, scale) -> list[
         row["start_at"] = watched.chart.start_at if method == "monitor" else np.nan
         row["false_alarm"] = at is not None and (start is None or at < start)
         row["delay"] = np.nan if at is None or start is None or at < start else at - start
+        if method == "monitor":
+            left = watched.departure
+            row["departed_at"] = np.nan if left is None else left.start_part - 1
         if method == "monitor" and verdict:
             row["cause_right"] = judge(watched, column, verdict)
             row["named"] = None if watched.change is None else watched.change.text
+            row["departure_named"] = verdict == NEW and named_at_departure(watched, column, start)
         rows.append(row)
     return rows
 
@@ -274,13 +288,15 @@ def _delays(rows: pd.DataFrame) -> list[str]:
 def _named(table: pd.DataFrame) -> list[str]:
     monitor = table[(table["method"] == "monitor") & table["batch"].isin(CAUSES)]
     lines = ["## What changed: named right", "", "| change | batches | alarmed after the start | named right | "
-             "named right, of those alarmed after the start |", "|---|---:|---:|---:|---:|"]  # fmt: skip
+             "named right, of those alarmed after the start | no alarm: the setting named where the batch left what "
+             "the models judge |", "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
     for kind, rows in [*monitor.groupby("batch"), ("all", monitor)]:
         after = rows[rows["delay"].notna()]
         right, right_after = rows["cause_right"].astype(bool), after["cause_right"].astype(bool)
         share = f"{right_after.mean():.0%}" if len(after) else "-"
+        departed = int(rows.get("departure_named", pd.Series(False, index=rows.index)).fillna(False).astype(bool).sum())
         lines.append(f"| {kind} | {len(rows)} | {len(after)} | {int(right.sum())} ({right.mean():.0%}) | "
-                     f"{int(right_after.sum())} ({share}) |")  # fmt: skip
+                     f"{int(right_after.sum())} ({share}) | {departed} |")  # fmt: skip
     return lines
 
 

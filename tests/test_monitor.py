@@ -268,6 +268,7 @@ def test_the_logs_own_parts_are_in_control(predictor, parts):
     assert watched.chart.alarm_at is None and watched.change is None
     assert not watched.table["alarm"].any() and watched.table["change_start"].isna().all()
     says(words.summary(watched), "in control", "400 parts")
+    assert watched.departure is None
 
 
 def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
@@ -278,7 +279,52 @@ def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
     far = watched.table["trust"].to_numpy() == "extrapolation"
     assert far[200:].all() and not far[:200].any() and watched.table["expected_error"][far].isna().all()
     assert watched.chart.alarm_at is None and watched.judged.sum() == 200
-    says(words.summary(watched), "in control", "200 parts judged of 400", "200 of the 400 parts (50%) were not judged")
+    summary = words.summary(watched)
+    says(summary, "200 parts judged of 400", "200 of the 400 parts (50%) were not judged")
+    # quiet only because nothing after part 200 could be compared: said so, with the setting that took it there
+    assert watched.departure.start_part == 201 and watched.departure.columns == ("shim21_mm",)
+    says(summary.splitlines()[0], "not judged from part 201 on", "shim21_mm at", "beyond every logged part's")
+    assert "in control" not in summary
+    says(summary, "next: run the proposed simulations", "shim21_mm=0.9", "next: append the batch")
+
+
+def test_a_setting_stepped_where_the_models_cannot_judge_is_named_and_several_at_once_are_a_campaign(predictor, parts):
+    batch = parts.copy()
+    batch.loc[200:, "cushion_c4_kn"] = batch["cushion_c4_kn"].max() + 80.0
+    one = watch.watch(predictor, batch)
+    assert one.departure.start_part == 201 and one.departure.columns == ("cushion_c4_kn",)
+    says(one.departure.text, "a step in cushion_c4_kn at part 201")
+    batch.loc[200:, "cushion_c1_kn"] = batch["cushion_c1_kn"].min() - 80.0
+    both = watch.watch(predictor, batch)
+    assert set(both.departure.columns) == {"cushion_c4_kn", "cushion_c1_kn"}
+    says(both.departure.text, "a new campaign of settings at part 201", "cushion_c1_kn", "cushion_c4_kn")
+
+
+def test_the_departure_is_the_likeliest_split_of_the_parts_not_judged():
+    from hybridtwin.monitor.departure import split_point
+
+    flags = np.r_[np.zeros(120), np.ones(80)]
+    assert split_point(flags) == 120
+    flags[[10, 50, 90]] = 1  # a few parts not judged before it, a few judged after it
+    flags[[150, 170]] = 0
+    assert split_point(flags) == 120
+    assert split_point(np.ones(60)) is None  # too short to hold a stretch before and after
+
+
+def test_settings_that_neither_step_nor_leave_the_logged_range_are_a_new_combination():
+    from hybridtwin.monitor.departure import _moved
+
+    rng = np.random.default_rng(5)
+    settings = pd.DataFrame({"a": rng.normal(0, 1, 400), "b": rng.normal(0, 1, 400)})
+    settings.loc[200:, "b"] += 1.0  # moved, inside the log's range, no step beyond the scatter before
+    logged = pd.DataFrame({"low": [-9.0, -9.0], "high": [9.0, 9.0]}, index=["a", "b"])
+    columns, text = _moved(settings, 200, logged)
+    assert columns == ()
+    says(text, "no single setting left the logged range", "furthest moved: b")
+    logged.loc["b", "high"] = 0.5  # most parts since lie above every logged part
+    columns, text = _moved(settings, 200, logged)
+    assert columns == ("b",)
+    says(text, "b at", "beyond every logged part's -9 to 0.5")
 
 
 def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predictor, parts):

@@ -9,7 +9,8 @@ from hybridtwin.report.plots import plt
 
 def monitor(watched, title: str = ""):
     """Two panels over the batch's parts: the residual (judged parts, and those not judged in grey) with the
-    estimated start and the alarm marked; below, the statistic against its limit."""
+    estimated start and the alarm marked, and the stretch shaded where the batch left what the models can judge;
+    below, the statistic against its limit."""
     table, chart = watched.table, watched.chart
     part = table["part"].to_numpy()
     residual = table["residual"].to_numpy(float)
@@ -31,6 +32,11 @@ def monitor(watched, title: str = ""):
         for rows in (before, after):
             if rows.any():
                 top.hlines(residual[rows].mean(), part[rows][0], part[rows][-1], color="C1", lw=2)
+    left = watched.departure
+    if left is not None:  # where the batch left what the models can judge: shaded, not an alarm
+        for axis in (top, bottom):
+            axis.axvspan(left.start_part, part[-1], color="0.85", alpha=0.5, lw=0,
+                         label=f"left the judged settings, part {left.start_part:,}")  # fmt: skip
     top.set(ylabel=f"measured − predicted [{watched.unit}]", title=title or "Monitor: residual over the batch")
     bottom.set(xlabel="part (row of the batch)", ylabel="statistic")
     top.legend(fontsize=7, loc="upper left")

@@ -27,6 +27,7 @@ from hybridtwin.models.batches import available_cores
 from hybridtwin.models.registry import RECOMMENDED_COLUMN
 from hybridtwin.monitor import chart
 from hybridtwin.monitor.changes import Change, what_changed
+from hybridtwin.monitor.departure import Departure, departure
 from hybridtwin.monitor.regimes import Regimes, labels
 
 # the columns the monitor adds to the batch's own (a contract: docs/monitor.md)
@@ -144,6 +145,7 @@ class Watched:
     target: str
     unit: str
     log_rows: int | None = None  # the production log's parts the charts' limits were set on (None: not stored)
+    departure: Departure | None = None  # where the batch left what the models can judge (None: it did not)
 
     @property
     def judged(self) -> np.ndarray:
@@ -192,4 +194,5 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     if explain and result.alarm_at is not None:
         change = what_changed(table, residual, result, predictor, seed, COLUMNS)
     log_rows = predictor.spec.get("monitor", {}).get("log_rows")
-    return Watched(table, result, change, target, predictor.spec["unit"], log_rows)
+    left = departure(table, ~np.isnan(result.z), residual, predictor)
+    return Watched(table, result, change, target, predictor.spec["unit"], log_rows, left)

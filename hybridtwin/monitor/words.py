@@ -20,6 +20,14 @@ def headline(watched) -> str:
     judged = int(watched.judged.sum())
     if chart.alarm_at is None and not judged:
         return f"nothing judged: none of the {n:,} parts could be compared with the models (see below)"
+    if chart.alarm_at is None and watched.departure is not None:
+        # quiet only because nothing after that part could be compared: not "in control"
+        left = watched.departure
+        return (
+            f"not judged from part {left.start_part:,} on: the batch left the settings the models can judge "
+            f"({left.text}); the {judged:,} parts judged of {n:,} behave as the models expect (statistic at most "
+            f"{float(chart.statistic.max()):.1f}, limit {chart.limit:g})"
+        )
     if chart.alarm_at is None:
         # the parts not judged are not vouched for: the summary says how many and why
         return (
@@ -48,6 +56,20 @@ def unjudged(watched) -> str:
     )
 
 
+def departed(watched) -> str:
+    """Where the batch left what the models can judge: the settings, and the residual there (no verdict)."""
+    left = watched.departure
+    if left is None:
+        return ""
+    moved = "" if watched.chart.alarm_at is None else f" ({left.text})"
+    return (
+        f"from part {left.start_part:,} on, {left.not_judged:.0%} of the {left.n_after:,} parts were not judged: the "
+        f"batch left the settings the models can judge{moved}; there the residual sits {left.shift:+.2f} "
+        f"{watched.unit} from the parts judged before, which is no verdict: the models' error at those settings "
+        "is unknown"
+    )
+
+
 # below this many parts in the production log the limits over the regimes' levels rest on too few campaigns and
 # coils: on the monitor bank's plants (families generator; docs/benchmarks.md, "Monitor"), logs of 8,000 and
 # 20,000 parts gave false alarms on 8 and 6 of 21 in-control batches, logs of 30,000 on 0 and 1 of 21 (two seeds)
@@ -67,10 +89,11 @@ def short_log(watched) -> str:
 
 
 def next_steps(watched) -> list[str]:
-    """What to do after an alarm: run the simulations the change needs, and append the batch and rerun."""
+    """What to do after an alarm: run the simulations the change needs, and append the batch and rerun; where the
+    batch left the settings the models can judge and nothing alarmed before: simulate those settings."""
     change = watched.change
     if watched.chart.alarm_at is None or change is None:
-        return []
+        return _after_departure(watched.departure)
     steps = []
     if change.proposed:
         shown = ", ".join(f"{name}={value:.4g}" for name, value in change.proposed.items())
@@ -94,6 +117,27 @@ def next_steps(watched) -> list[str]:
     return steps
 
 
+def _after_departure(left) -> list[str]:
+    """To judge the parts a batch took where the models cannot: simulations where they lie outside the support,
+    and in any case the batch in the production log, so that the models learn those settings."""
+    if left is None:
+        return []
+    steps = []
+    if left.outside_support > 0.5:
+        shown = ", ".join(f"{name}={value:.4g}" for name, value in left.proposed.items())
+        steps.append(
+            f"run the proposed simulations: {left.outside_support:.0%} of the parts since part {left.start_part:,} "
+            f"lie outside the support; simulate their typical setting ({shown}), add it to the DoE, and the rerun "
+            "proposes more (results/enrichment/proposed_simulations.csv)"
+        )
+    steps.append(
+        f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
+        f"models learn the settings since part {left.start_part:,} and can judge them next time: the rules that "
+        f"rerun are {RERUN}"
+    )
+    return steps
+
+
 def summary(watched) -> str:
     """What the command prints: the verdict, what changed, what to do."""
     lines = [headline(watched)]
@@ -103,7 +147,7 @@ def summary(watched) -> str:
             f"what changed ({change.kind}): {change.text}; the residual moved by {change.shift:+.2f} "
             f"{watched.unit} over the {change.n_after:,} parts judged since part {change.start_part:,}"
         )
-    lines += [note for note in [unjudged(watched), short_log(watched)] if note]
+    lines += [note for note in [unjudged(watched), departed(watched), short_log(watched)] if note]
     lines += [f"next: {step}" for step in next_steps(watched)]
     return "\n".join(lines)
 
@@ -137,7 +181,7 @@ def markdown(watched, batch_name: str) -> str:
     text = [f"# Monitor: {batch_name}", "", headline(watched) + ".", ""]
     if watched.change is not None:
         text += [f"**What changed** ({watched.change.kind}): {watched.change.text}.", ""]
-    for note in (unjudged(watched), short_log(watched)):
+    for note in (unjudged(watched), departed(watched), short_log(watched)):
         text += [note + ".", ""] if note else []
     steps = next_steps(watched)
     if steps:
