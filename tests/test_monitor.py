@@ -333,6 +333,10 @@ def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predict
     watched = watch.watch(predictor, batch)
     assert watched.judged.sum() == 0 and watched.chart.alarm_at is None
     says(words.summary(watched), "nothing judged", "none of the 50 parts", "50 of the 50 parts (100%) were not judged")
+    # which settings: beyond every logged part's range (no part before to date a step against)
+    assert watched.departure.start_part == 1 and watched.departure.columns == ("shim21_mm",)
+    says(words.summary(watched), "100% of the parts lie at settings the models cannot judge (shim21_mm at")
+    says(words.summary(watched), "run the proposed simulations: 100% of the batch's parts lie outside the support")
     assert "in control" not in words.summary(watched)
 
 

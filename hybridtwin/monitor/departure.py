@@ -57,7 +57,9 @@ def departure(table: pd.DataFrame, judged: np.ndarray, residual, predictor) -> D
     unjudged = ~np.asarray(judged, bool)
     at = split_point(unjudged.astype(float))
     if at is None or unjudged[at:].mean() < GONE or unjudged[:at].mean() > 1 - JUDGED_BEFORE:
-        return None
+        if not len(unjudged) or unjudged.mean() < GONE:
+            return None
+        at = 0  # the batch lies there from its first parts
     inputs = [name for name in predictor.inputs if name in table]
     columns, text = _moved(table[inputs], at, _logged_range(predictor))
     residual = np.asarray(residual, float)
@@ -81,7 +83,7 @@ def _logged_range(predictor) -> pd.DataFrame | None:
 
 def _moved(settings: pd.DataFrame, at: int, logged: pd.DataFrame | None) -> tuple[tuple[str, ...], str]:
     """The settings that took the batch away at index ``at``, and the words for it."""
-    steps = _steps(settings, at, clocks(settings))
+    steps = _steps(settings, at, clocks(settings)) if at else {}
     if len(steps) == 1:
         ((name, step),) = steps.items()
         return (name,), _step_text(name, step)
@@ -103,6 +105,8 @@ def _moved(settings: pd.DataFrame, at: int, logged: pd.DataFrame | None) -> tupl
             for name in beyond
         ]
         return tuple(beyond), "; ".join(texts)
+    if not at:
+        return (), "no single setting lies beyond every logged part's range: their combination is new to the log"
     name = max(
         settings.columns,
         key=lambda c: abs(since[c].median() - settings[c].iloc[:at].median()) / _spread(settings[c], at),

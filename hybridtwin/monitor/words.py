@@ -20,13 +20,17 @@ def headline(watched) -> str:
     judged = int(watched.judged.sum())
     if chart.alarm_at is None and not judged:
         return f"nothing judged: none of the {n:,} parts could be compared with the models (see below)"
-    if chart.alarm_at is None and watched.departure is not None:
+    if chart.alarm_at is None and watched.departure is not None and judged:
         # quiet only because nothing after that part could be compared: not "in control"
         left = watched.departure
+        where = (
+            f"not judged from part {left.start_part:,} on: the batch left the settings the models can judge"
+            if left.start_part > 1
+            else "mostly not judged: the batch lies at settings the models cannot judge"
+        )
         return (
-            f"not judged from part {left.start_part:,} on: the batch left the settings the models can judge "
-            f"({left.text}); the {judged:,} parts judged of {n:,} behave as the models expect (statistic at most "
-            f"{float(chart.statistic.max()):.1f}, limit {chart.limit:g})"
+            f"{where} ({left.text}); the {judged:,} parts judged of {n:,} behave as the models expect (statistic at "
+            f"most {float(chart.statistic.max()):.1f}, limit {chart.limit:g})"
         )
     if chart.alarm_at is None:
         # the parts not judged are not vouched for: the summary says how many and why
@@ -61,7 +65,14 @@ def departed(watched) -> str:
     left = watched.departure
     if left is None:
         return ""
-    moved = "" if watched.chart.alarm_at is None else f" ({left.text})"
+    in_headline = watched.chart.alarm_at is None and watched.judged.any()
+    moved = "" if in_headline else f" ({left.text})"
+    if left.start_part == 1:
+        return (
+            f"{left.not_judged:.0%} of the parts lie at settings the models cannot judge{moved}; their residual "
+            f"averages {left.shift:+.2f} {watched.unit}, which is no verdict: the models' error at those settings is "
+            "unknown"
+        )
     return (
         f"from part {left.start_part:,} on, {left.not_judged:.0%} of the {left.n_after:,} parts were not judged: the "
         f"batch left the settings the models can judge{moved}; there the residual sits {left.shift:+.2f} "
@@ -122,18 +133,18 @@ def _after_departure(left) -> list[str]:
     and in any case the batch in the production log, so that the models learn those settings."""
     if left is None:
         return []
+    parts = f"the parts since part {left.start_part:,}" if left.start_part > 1 else "the batch's parts"
     steps = []
     if left.outside_support > 0.5:
         shown = ", ".join(f"{name}={value:.4g}" for name, value in left.proposed.items())
         steps.append(
-            f"run the proposed simulations: {left.outside_support:.0%} of the parts since part {left.start_part:,} "
-            f"lie outside the support; simulate their typical setting ({shown}), add it to the DoE, and the rerun "
-            "proposes more (results/enrichment/proposed_simulations.csv)"
+            f"run the proposed simulations: {left.outside_support:.0%} of {parts} lie outside the support; simulate "
+            f"their typical setting ({shown}), add it to the DoE, and the rerun proposes more "
+            "(results/enrichment/proposed_simulations.csv)"
         )
     steps.append(
         f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
-        f"models learn the settings since part {left.start_part:,} and can judge them next time: the rules that "
-        f"rerun are {RERUN}"
+        f"models learn the settings of {parts} and can judge them next time: the rules that rerun are {RERUN}"
     )
     return steps
 
