@@ -274,6 +274,8 @@ def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, inp
     shown = {"inputs": list(spec.inputs), "target": spec.target, "threshold": threshold}
     shown |= {key: settings[key] for key in ("unit", "csv", "level")}
     manifest = predictor.manifest(doe, calibrated, shown, typical(production, in_support(predictions), columns), units)
+    # each input's lowest and highest logged setting: where a batch goes beyond the whole log (the monitor)
+    manifest["logged_range"] = {name: [float(log[name].min()), float(log[name].max())] for name in spec.inputs}
     manifest["monitor"] = monitor.calibrate(
         predictions["measured"], calibrated, settings["level"], log, spec.inputs, spec.seed, causes
     )

@@ -283,9 +283,13 @@ def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
     says(summary, "200 parts judged of 400", "200 of the 400 parts (50%) were not judged")
     # quiet only because nothing after part 200 could be compared: said so, with the setting that took it there
     assert watched.departure.start_part == 201 and watched.departure.columns == ("shim21_mm",)
-    says(summary.splitlines()[0], "not judged from part 201 on", "shim21_mm at", "beyond every logged part's")
+    # these models were stored before the log's range was: the range of the logged parts they keep, said so
+    says(summary.splitlines()[0], "not judged from part 201 on", "shim21_mm at", "beyond the 2,000 logged parts")
     assert "in control" not in summary
     says(summary, "next: run the proposed simulations", "shim21_mm=0.9", "next: append the batch")
+    assert watched.departure.shift == pytest.approx(
+        watched.table["residual"].iloc[200:].mean() - watched.table["residual"].iloc[:200].mean()
+    )
 
 
 def test_a_setting_stepped_where_the_models_cannot_judge_is_named_and_several_at_once_are_a_campaign(predictor, parts):
@@ -317,14 +321,31 @@ def test_settings_that_neither_step_nor_leave_the_logged_range_are_a_new_combina
     rng = np.random.default_rng(5)
     settings = pd.DataFrame({"a": rng.normal(0, 1, 400), "b": rng.normal(0, 1, 400)})
     settings.loc[200:, "b"] += 1.0  # moved, inside the log's range, no step beyond the scatter before
-    logged = pd.DataFrame({"low": [-9.0, -9.0], "high": [9.0, 9.0]}, index=["a", "b"])
-    columns, text = _moved(settings, 200, logged)
+    bounds = pd.DataFrame({"low": [-9.0, -9.0], "high": [9.0, 9.0]}, index=["a", "b"])
+    columns, text = _moved(settings, 200, (bounds, "the log's"))
     assert columns == ()
-    says(text, "no single setting left the logged range", "furthest moved: b")
-    logged.loc["b", "high"] = 0.5  # most parts since lie above every logged part
-    columns, text = _moved(settings, 200, logged)
+    says(text, "no single setting stepped or left the logged range", "furthest moved: b")
+    bounds.loc["b", "high"] = 0.5  # most parts since lie above every logged part
+    columns, text = _moved(settings, 200, (bounds, "the log's"))
     assert columns == ("b",)
-    says(text, "b at", "beyond every logged part's -9 to 0.5")
+    says(text, "b at", "beyond the log's -9 to 0.5")
+    assert _moved(settings, 200, None)[1].startswith("no single setting stepped;")  # no range known: not claimed
+    shim = pd.DataFrame({"shim": np.r_[np.full(200, 0.5), np.full(200, 0.6)]})  # logged exactly, stepped up once
+    assert _moved(shim, 200, None)[0] == ("shim",)  # a setting, not a clock
+
+
+def test_the_models_store_the_logs_range_and_a_departure_is_said_against_it(predictor, parts, monkeypatch):
+    spec = {**predictor.spec, "logged_range": {name: [float(parts[name].min()), float(parts[name].max())]
+                                               for name in predictor.inputs}}  # fmt: skip
+    monkeypatch.setattr(predictor, "spec", spec)
+    batch = parts.copy()
+    batch.loc[200:, "shim21_mm"] += 0.3
+    watched = watch.watch(predictor, batch)
+    says(watched.departure.text, "shim21_mm at", f"beyond the log's {parts['shim21_mm'].min():.4g} to")
+    batch.loc[100:, "draw_in_mm"] += 3 * 2.41  # a step before the batch leaves: an alarm
+    alarmed = watch.watch(predictor, batch, explain=False)
+    assert alarmed.chart.alarm_at < 200 and alarmed.departure is not None and alarmed.change is None
+    assert words.next_steps(alarmed) == []  # an alarm nothing explained: no advice to teach it to the models
 
 
 def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predictor, parts):
@@ -335,7 +356,7 @@ def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predict
     says(words.summary(watched), "nothing judged", "none of the 50 parts", "50 of the 50 parts (100%) were not judged")
     # which settings: beyond every logged part's range (no part before to date a step against)
     assert watched.departure.start_part == 1 and watched.departure.columns == ("shim21_mm",)
-    says(words.summary(watched), "100% of the parts lie at settings the models cannot judge (shim21_mm at")
+    says(words.summary(watched), "100% of the parts lie at settings the models cannot judge: shim21_mm at")
     says(words.summary(watched), "run the proposed simulations: 100% of the batch's parts lie outside the support")
     assert "in control" not in words.summary(watched)
 

@@ -125,6 +125,12 @@ class Predictor:
         return dict(self.spec.get("units", {}))
 
     @property
+    def logged_range(self) -> dict[str, tuple[float, float]] | None:
+        """Each input's lowest and highest setting over the production log (None: models stored before it was)."""
+        stored = self.spec.get("logged_range")
+        return None if stored is None else {name: tuple(bounds) for name, bounds in stored.items()}
+
+    @property
     def typical(self) -> dict[str, float]:
         """Typical production: the median of the in-support parts, per input (and per numeric cause column)."""
         return dict(self.spec["typical"])

@@ -86,19 +86,32 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
     around = values[first : start + LOCAL]
     n = len(around)
-    total, squares = np.cumsum(around), np.cumsum(around**2)
-    split = np.arange(1, n)
-    left = squares[:-1] - total[:-1] ** 2 / split
-    right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
+    split, misfit = two_levels(around)
     # a step, not a trend (a die warming up): a straight line leaves a misfit beyond the setting's own scatter from
     # part to part (at least as large again), and two levels take far the most of it (one side of a step may
     # scatter more than the other)
     line = np.sum((around - np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))) ** 2)
     scatter = n * np.sum(np.diff(around) ** 2) / (2 * (n - 1))
-    if line < 2 * scatter or np.min(left + right) - scatter > 0.25 * (line - scatter):
+    if line < 2 * scatter or np.min(misfit) - scatter > 0.25 * (line - scatter):
         return None
-    at = first + int(split[np.argmin(left + right)])
+    at = first + int(split[np.argmin(misfit)])
     return at, float(np.median(before)), float(np.median(after))
+
+
+def two_levels(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each split of a series into a level before and one after (the index of the first part after, 1 to n - 1)
+    and the squared misfit of those two levels."""
+    n = len(values)
+    total, squares = np.cumsum(values), np.cumsum(values**2)
+    split = np.arange(1, n)
+    left = squares[:-1] - total[:-1] ** 2 / split
+    right = (squares[-1] - squares[:-1]) - (total[-1] - total[:-1]) ** 2 / (n - split)
+    return split, left + right
+
+
+def typical_setting(table: pd.DataFrame, inputs, start: int) -> dict[str, float]:
+    """The parts' median setting from ``start`` on: what to simulate for them."""
+    return {name: float(table[name].iloc[start:].median()) for name in inputs}
 
 
 def step_share(residual: np.ndarray, after: np.ndarray) -> float:
@@ -238,7 +251,7 @@ def what_changed(table: pd.DataFrame, residual, result, predictor, seed: int = 0
     proposed = {}
     # the change comes with settings outside the support: more of the parts since the start lie there than before
     if outside > 0.5 and outside - (float(np.mean(not_validated[:start])) if start >= MIN_BEFORE else 0.0) > 0.25:
-        proposed = {name: float(table[name].iloc[start:].median()) for name in predictor.inputs}
+        proposed = typical_setting(table, predictor.inputs, start)
     return Change(kind, text, column, proposed=proposed, **common)
 
 
@@ -257,7 +270,7 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
         name, change = known_moved
         return KNOWN, name, f"the {name} effect changed by {change:+.1f} {unit} over its range since part {start + 1:,}"
     known = predictor.extension.extension.columns
-    timing = clocks(frame)
+    timing = clocks(frame) - set(predictor.inputs)  # a setting stepped up once never goes down, yet is no clock
     if regime is not None:
         found = _slope_changed(found, frame, start, timing, regime)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.answers.regions import IN_SUPPORT
-from hybridtwin.monitor.changes import MIN_BEFORE, _step_text, _steps, clocks
+from hybridtwin.monitor.changes import MIN_BEFORE, _step_text, _steps, two_levels, typical_setting
 
 LEAST_AFTER = 50  # parts from the departure to the end of the batch
 GONE = 0.9  # at least this share of the parts since the departure is not judged
@@ -38,17 +38,13 @@ class Departure:
 
 
 def split_point(flags: np.ndarray) -> int | None:
-    """The index at which a 0/1 series most likely changes level (least squares of two levels), with at least
+    """The index at which a 0/1 series most likely changes level (two levels by least squares), with at least
     MIN_BEFORE parts before it and LEAST_AFTER after it; None if the series is too short."""
-    n = len(flags)
-    if n < MIN_BEFORE + LEAST_AFTER:
+    if len(flags) < MIN_BEFORE + LEAST_AFTER:
         return None
-    total = np.cumsum(flags)
-    split = np.arange(MIN_BEFORE, n - LEAST_AFTER + 1)
-    left = total[split - 1] - total[split - 1] ** 2 / split  # a 0/1 series: squares equal values
-    right_sum = total[-1] - total[split - 1]
-    right = right_sum - right_sum**2 / (n - split)
-    return int(split[np.argmin(left + right)])
+    split, misfit = two_levels(np.asarray(flags, float))
+    allowed = (split >= MIN_BEFORE) & (split <= len(flags) - LEAST_AFTER)
+    return int(split[allowed][np.argmin(misfit[allowed])])
 
 
 def departure(table: pd.DataFrame, judged: np.ndarray, residual, predictor) -> Departure | None:
@@ -63,27 +59,36 @@ def departure(table: pd.DataFrame, judged: np.ndarray, residual, predictor) -> D
     inputs = [name for name in predictor.inputs if name in table]
     columns, text = _moved(table[inputs], at, _logged_range(predictor))
     residual = np.asarray(residual, float)
-    before = np.asarray(judged, bool)[:at]
-    shift = float(np.nanmean(residual[at:]) - (residual[:at][before].mean() if before.any() else 0.0))
-    proposed = {name: float(table[name].iloc[at:].median()) for name in inputs}
+    before = np.asarray(judged, bool)[:at] & np.isfinite(residual[:at])
+    since = residual[at:][np.isfinite(residual[at:])]
+    shift = float(since.mean() - (residual[:at][before].mean() if before.any() else 0.0)) if len(since) else np.nan
+    proposed = typical_setting(table, inputs, at)
+    # outside the support: not in the in-support region (beyond the gate, or inside it beyond a DoE range)
     outside = float(np.mean(table["interval_region"].to_numpy(object)[at:] != IN_SUPPORT))
     n_after = len(table) - at
     return Departure(at + 1, n_after, float(unjudged[at:].mean()), columns, text, shift, outside, proposed)
 
 
-def _logged_range(predictor) -> pd.DataFrame | None:
-    """Per input, the lowest and highest setting of the logged parts the models keep (their novelty sample); None
-    for models stored without it."""
+def _logged_range(predictor) -> tuple[pd.DataFrame, str] | None:
+    """Per input, the lowest and highest logged setting, and what they are the range of: the whole log (stored
+    with the models), or for models stored before it the logged parts they keep (their novelty sample); None
+    without either."""
+    if predictor.logged_range is not None:
+        bounds = predictor.logged_range
+        low, high = [bounds[name][0] for name in predictor.inputs], [bounds[name][1] for name in predictor.inputs]
+        return pd.DataFrame({"low": low, "high": high}, index=predictor.inputs), "the log's"
     if predictor.neighbourhood is None:
         return None
     standardizer = predictor.gate.standardizer_
     parts = predictor.neighbourhood.parts_ * standardizer.scale_ + standardizer.mean_
-    return pd.DataFrame({"low": parts.min(axis=0), "high": parts.max(axis=0)}, index=predictor.inputs)
+    kept = pd.DataFrame({"low": parts.min(axis=0), "high": parts.max(axis=0)}, index=predictor.inputs)
+    return kept, f"the {len(parts):,} logged parts the models keep"
 
 
-def _moved(settings: pd.DataFrame, at: int, logged: pd.DataFrame | None) -> tuple[tuple[str, ...], str]:
-    """The settings that took the batch away at index ``at``, and the words for it."""
-    steps = _steps(settings, at, clocks(settings)) if at else {}
+def _moved(settings: pd.DataFrame, at: int, logged: tuple[pd.DataFrame, str] | None) -> tuple[tuple[str, ...], str]:
+    """The settings that took the batch away at index ``at``, and the words for it (``logged``: the logged range
+    and its name, :func:`_logged_range`)."""
+    steps = _steps(settings, at, set()) if at else {}  # the inputs are settings: none is a clock
     if len(steps) == 1:
         ((name, step),) = steps.items()
         return (name,), _step_text(name, step)
@@ -92,29 +97,31 @@ def _moved(settings: pd.DataFrame, at: int, logged: pd.DataFrame | None) -> tupl
         moves = ", ".join(f"{name} {steps[name][1]:.4g} to {steps[name][2]:.4g}" for name in names)
         return tuple(names), f"a new campaign of settings at part {min(s[0] for s in steps.values()) + 1:,}: {moves}"
     since = settings.iloc[at:]
-    logged = pd.DataFrame({"low": -np.inf, "high": np.inf}, index=settings.columns) if logged is None else logged
-    outside = {
-        name: float(np.mean((since[name] < logged.loc[name, "low"]) | (since[name] > logged.loc[name, "high"])))
-        for name in settings.columns
-    }
-    beyond = [name for name in settings.columns if outside[name] >= BEYOND]
+    beyond = _beyond(since, logged) if logged is not None else {}
     if beyond:
-        texts = [
-            f"{name} at {since[name].median():.4g} (median), beyond every logged part's "
-            f"{logged.loc[name, 'low']:.4g} to {logged.loc[name, 'high']:.4g} on {outside[name]:.0%} of the parts"
-            for name in beyond
-        ]
-        return tuple(beyond), "; ".join(texts)
-    if not at:
-        return (), "no single setting lies beyond every logged part's range: their combination is new to the log"
-    name = max(
-        settings.columns,
-        key=lambda c: abs(since[c].median() - settings[c].iloc[:at].median()) / _spread(settings[c], at),
-    )
-    return (), (
-        f"no single setting left the logged range: their combination is new to the log (the furthest moved: "
-        f"{name}, median {settings[name].iloc[:at].median():.4g} before, {since[name].median():.4g} since)"
-    )
+        return tuple(beyond), "; ".join(beyond.values())
+    # unlike what calibrated the models in another way: a combination of settings, or far from the simulations
+    text = "no single setting stepped" + (" or left the logged range" if logged is not None else "")
+    if at:
+        before = settings.iloc[:at].median()
+        name = max(settings.columns, key=lambda c: abs(since[c].median() - before[c]) / _spread(settings[c], at))
+        text += f"; the furthest moved: {name}, median {before[name]:.4g} before, {since[name].median():.4g} since"
+    return (), text + " (`hybridtwin predict` gives each part's reason)"
+
+
+def _beyond(since: pd.DataFrame, logged: tuple[pd.DataFrame, str]) -> dict[str, str]:
+    """The settings beyond the logged range on at least BEYOND of the parts, each with its words."""
+    bounds, whose = logged
+    out = {}
+    for name in since.columns:
+        low, high = bounds.loc[name, "low"], bounds.loc[name, "high"]
+        share = float(np.mean((since[name] < low) | (since[name] > high)))
+        if share >= BEYOND:
+            out[name] = (
+                f"{name} at {since[name].median():.4g} (median), beyond {whose} {low:.4g} to {high:.4g} on "
+                f"{share:.0%} of the parts"
+            )
+    return out
 
 
 def _spread(values: pd.Series, at: int) -> float:

@@ -34,9 +34,8 @@ def monitor(watched, title: str = ""):
                 top.hlines(residual[rows].mean(), part[rows][0], part[rows][-1], color="C1", lw=2)
     left = watched.departure
     if left is not None:  # where the batch left what the models can judge: shaded, not an alarm
-        for axis in (top, bottom):
-            axis.axvspan(left.start_part, part[-1], color="0.85", alpha=0.5, lw=0,
-                         label=f"left the judged settings, part {left.start_part:,}")  # fmt: skip
+        for axis, label in ((top, f"left the judged settings, part {left.start_part:,}"), (bottom, None)):
+            axis.axvspan(left.start_part, part[-1], color="0.85", alpha=0.5, lw=0, label=label)
     top.set(ylabel=f"measured − predicted [{watched.unit}]", title=title or "Monitor: residual over the batch")
     bottom.set(xlabel="part (row of the batch)", ylabel="statistic")
     top.legend(fontsize=7, loc="upper left")

@@ -29,7 +29,7 @@ def headline(watched) -> str:
             else "mostly not judged: the batch lies at settings the models cannot judge"
         )
         return (
-            f"{where} ({left.text}); the {judged:,} parts judged of {n:,} behave as the models expect (statistic at "
+            f"{where}: {left.text}; the {judged:,} parts judged of {n:,} behave as the models expect (statistic at "
             f"most {float(chart.statistic.max()):.1f}, limit {chart.limit:g})"
         )
     if chart.alarm_at is None:
@@ -66,18 +66,17 @@ def departed(watched) -> str:
     if left is None:
         return ""
     in_headline = watched.chart.alarm_at is None and watched.judged.any()
-    moved = "" if in_headline else f" ({left.text})"
+    moved = "" if in_headline else f": {left.text}"
+    unknown = "which is no verdict: the models' error at those settings is unknown"
     if left.start_part == 1:
-        return (
-            f"{left.not_judged:.0%} of the parts lie at settings the models cannot judge{moved}; their residual "
-            f"averages {left.shift:+.2f} {watched.unit}, which is no verdict: the models' error at those settings is "
-            "unknown"
+        residual = f"; their residual averages {left.shift:+.2f} {watched.unit}, {unknown}"
+        return f"{left.not_judged:.0%} of the parts lie at settings the models cannot judge{moved}" + (
+            residual if np.isfinite(left.shift) else ""
         )
+    residual = f"; there the residual sits {left.shift:+.2f} {watched.unit} from the parts judged before, {unknown}"
     return (
         f"from part {left.start_part:,} on, {left.not_judged:.0%} of the {left.n_after:,} parts were not judged: the "
-        f"batch left the settings the models can judge{moved}; there the residual sits {left.shift:+.2f} "
-        f"{watched.unit} from the parts judged before, which is no verdict: the models' error at those settings "
-        "is unknown"
+        f"batch left the settings the models can judge{moved}" + (residual if np.isfinite(left.shift) else "")
     )
 
 
@@ -103,8 +102,10 @@ def next_steps(watched) -> list[str]:
     """What to do after an alarm: run the simulations the change needs, and append the batch and rerun; where the
     batch left the settings the models can judge and nothing alarmed before: simulate those settings."""
     change = watched.change
-    if watched.chart.alarm_at is None or change is None:
+    if watched.chart.alarm_at is None:
         return _after_departure(watched.departure)
+    if change is None:  # an alarm not explained (the API's explain=False): nothing to learn before it is
+        return []
     steps = []
     if change.proposed:
         shown = ", ".join(f"{name}={value:.4g}" for name, value in change.proposed.items())
