@@ -315,6 +315,35 @@ def test_the_departure_is_the_likeliest_split_of_the_parts_not_judged():
     assert split_point(np.ones(60)) is None  # too short to hold a stretch before and after
 
 
+def _stub_predictor(inputs):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(inputs=list(inputs), logged_range={name: (-9.0, 9.0) for name in inputs}, neighbourhood=None)
+
+
+def test_a_departure_needs_most_parts_since_not_judged_and_most_before_judged():
+    from hybridtwin.monitor.departure import departure
+
+    rng = np.random.default_rng(3)
+    table = pd.DataFrame({"a": rng.normal(0, 1, 400), "interval_region": "in_support"})
+    residual = rng.normal(0, 1, 400)
+
+    def judged(before_share, after_share):
+        return np.r_[rng.random(200) < before_share, rng.random(200) < after_share]
+
+    stub = _stub_predictor(["a"])
+    found = departure(table, judged(1.0, 0.03), residual, stub)
+    assert found is not None and abs(found.start_part - 201) <= 3 and found.outside_support == 0.0
+    assert departure(table, judged(1.0, 0.25), residual, stub) is None  # a quarter since still judged
+    assert departure(table, judged(0.7, 0.0), residual, stub) is not None  # most before judged: enough
+    assert departure(table, judged(0.4, 0.0), residual, stub) is None  # most before not judged either ...
+    whole = departure(table, judged(0.0, 0.0), residual, stub)
+    assert whole.start_part == 1  # ... unless the whole batch is not judged: then from its first part
+    # inside the support (settings unlike the log's): no simulation to propose, only the batch to learn
+    steps = words._after_departure(found)
+    assert len(steps) == 1 and steps[0].startswith("append the batch")
+
+
 def test_settings_that_neither_step_nor_leave_the_logged_range_are_a_new_combination():
     from hybridtwin.monitor.departure import _moved
 
@@ -354,6 +383,11 @@ def test_a_batch_of_which_no_part_can_be_judged_is_not_called_in_control(predict
     watched = watch.watch(predictor, batch)
     assert watched.judged.sum() == 0 and watched.chart.alarm_at is None
     says(words.summary(watched), "nothing judged", "none of the 50 parts", "50 of the 50 parts (100%) were not judged")
+    few = parts.iloc[:100].copy()
+    few["shim21_mm"] += 0.3
+    few.loc[:4, "shim21_mm"] -= 0.3  # five parts judged, then none
+    mostly = watch.watch(predictor, few)
+    says(words.summary(mostly).splitlines()[0], "mostly not judged", "shim21_mm at", "the 5 parts judged of 100")
     # which settings: beyond every logged part's range (no part before to date a step against)
     assert watched.departure.start_part == 1 and watched.departure.columns == ("shim21_mm",)
     says(words.summary(watched), "100% of the parts lie at settings the models cannot judge: shim21_mm at")
