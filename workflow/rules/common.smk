@@ -4,6 +4,7 @@ import os
 import socket
 from pathlib import Path
 
+from hybridtwin.io.resources import memory_mb, production_gb  # standard library only
 from hybridtwin.models import registry  # standard library only
 
 # the jobs' outputs are renamed into place only while this run lives (hybridtwin.io.files.check_owner):
@@ -99,6 +100,16 @@ def validation_settings(wildcards):
     if "doe" in roles:
         settings.update(cv=config["cv"], gate=config["gate"])
     return settings
+
+
+# each step's memory grows with the production log (hybridtwin.io.resources): Snakemake's mem_mb, which the SLURM
+# executor asks for per job and `--resources mem_mb=N` keeps within N MB on one machine
+PRODUCTION_GB = production_gb(config["data"]["production"], config["demo"]["n_production"])
+
+
+def memory(step):
+    """A rule's mem_mb: ``step`` is the rule's name, with its wildcard where it has one ("peer_{peer}")."""
+    return lambda wildcards: memory_mb(step.format(**dict(wildcards.items())), PRODUCTION_GB)
 
 
 def log_of(rule_name, suffix=""):

@@ -15,6 +15,8 @@ rule demo_data:
         benchmark_of("demo_data")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("demo_data"),
     params:
         code=PACKAGE_CODE,
         demo=config["demo"],
@@ -40,6 +42,8 @@ rule validate_inputs:
     priority: 2
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("validate_inputs_{role}"),
     params:
         code=PACKAGE_CODE,
         settings=validation_settings,
@@ -69,6 +73,8 @@ rule support_gate:
     priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("support_gate"),
     params:
         code=PACKAGE_CODE,
         spec=spec(),
@@ -92,6 +98,8 @@ rule table1:
         benchmark_of("table1")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("table1"),
     params:
         code=PACKAGE_CODE,
         k=config["gate"]["k"],

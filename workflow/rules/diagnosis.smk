@@ -25,6 +25,8 @@ rule diagnose:
         "../envs/hybridtwin.yaml"
     # one core, beside the tuning, which it does not wait for (its result does not depend on the threads)
     threads: 1
+    resources:
+        mem_mb=memory("diagnose"),
     params:
         code=PACKAGE_CODE,
         spec=spec("target", "seed", "folds"),
@@ -62,6 +64,8 @@ rule model_extension:
     # both cores: on the critical path, alone in the runs measured (demo and ten million parts); its XGBoost fits
     # and predictions, most of its time on a long log, give the same tables on one thread or two
     threads: 2
+    resources:
+        mem_mb=memory("model_extension"),
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "max_train_rows"),
@@ -85,6 +89,8 @@ rule production_predictions:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("production_predictions"),
     params:
         code=PACKAGE_CODE,
     script:
@@ -105,6 +111,8 @@ rule diagnosis_report:
         benchmark_of("diagnosis_report")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("diagnosis_report"),
     params:
         code=PACKAGE_CODE,
         target=TARGET,

@@ -21,6 +21,8 @@ rule propose_simulations:
         benchmark_of("propose_simulations")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("propose_simulations"),
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,

@@ -19,6 +19,8 @@ rule predict_production:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("predict_production"),
     params:
         code=PACKAGE_CODE,
         spec=spec(),
@@ -56,6 +58,8 @@ rule matched_check:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("matched_check"),
     params:
         code=PACKAGE_CODE,
         spec=spec(),
@@ -78,6 +82,8 @@ rule sensitivity:
         benchmark_of("sensitivity")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("sensitivity"),
     params:
         code=PACKAGE_CODE,
         max_train_rows=MAX_TRAIN_ROWS,
@@ -100,6 +106,8 @@ rule synthetic:
         benchmark_of("synthetic")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("synthetic"),
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,

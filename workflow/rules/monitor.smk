@@ -20,6 +20,8 @@ rule monitor:
         benchmark_of("monitor")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("monitor"),
     params:
         code=PACKAGE_CODE,
     script:

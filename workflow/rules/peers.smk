@@ -21,6 +21,8 @@ rule peer:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("peer_{peer}"),
     params:
         code=PACKAGE_CODE,
         spec=spec("target", "seed", "folds"),

@@ -44,6 +44,8 @@ rule prediction_intervals:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("prediction_intervals"),
     params:
         code=PACKAGE_CODE,
         spec=spec("target", "seed"),
@@ -83,6 +85,8 @@ rule whatif:
         benchmark_of("whatif")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("whatif"),
     params:
         code=PACKAGE_CODE,
         level=config["intervals"]["level"],

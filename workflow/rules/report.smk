@@ -67,6 +67,8 @@ rule report_summary:
         benchmark_of("report_summary")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("report_summary"),
     params:
         code=PACKAGE_CODE,
         target=TARGET,
@@ -89,6 +91,8 @@ rule report_pages:
         benchmark_of("report_pages")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("report_pages"),
     params:
         code=PACKAGE_CODE,
         unit=UNIT,

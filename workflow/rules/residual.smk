@@ -36,6 +36,8 @@ rule tune_worker:
     # one core: the peers and the diagnosis, which do not wait for the tuning, run on the other
     # (XGBoost's hist results do not depend on the thread count; a cluster profile sets more)
     threads: 1
+    resources:
+        mem_mb=memory("tune_worker"),
     params:
         **TUNING_PARAMS,
     script:
@@ -65,6 +67,8 @@ rule tune_residual:
     # one core, so that it never waits for both to be free (the study with one worker, or a trial the workers
     # left undone, runs here alike)
     threads: 1
+    resources:
+        mem_mb=memory("tune_residual"),
     params:
         **TUNING_PARAMS,
     script:
@@ -90,6 +94,8 @@ rule residual_cv:
     conda:
         "../envs/hybridtwin.yaml"
     threads: 1
+    resources:
+        mem_mb=memory("residual_cv_{training}"),
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "folds", "max_train_rows"),
@@ -108,6 +114,8 @@ rule table3:
         benchmark_of("table3")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("table3"),
     params:
         code=PACKAGE_CODE,
     shell:
@@ -131,6 +139,8 @@ rule residual_fit:
     conda:
         "../envs/hybridtwin.yaml"
     threads: 1
+    resources:
+        mem_mb=memory("residual_fit_{training}"),
     params:
         code=PACKAGE_CODE,
         spec=spec("seed", "max_train_rows"),

@@ -16,6 +16,8 @@ rule surrogate_cv:
         benchmark_of("surrogate_cv")
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("surrogate_cv"),
     params:
         code=PACKAGE_CODE,
         inputs=INPUTS,
@@ -40,6 +42,8 @@ rule surrogate_fit:
     priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("surrogate_fit"),
     params:
         code=PACKAGE_CODE,
         spec=spec("target", "seed"),
@@ -62,6 +66,8 @@ rule residuals:
     priority: 2  # on the way to the tuning
     conda:
         "../envs/hybridtwin.yaml"
+    resources:
+        mem_mb=memory("residuals"),
     params:
         code=PACKAGE_CODE,
         spec=spec("target"),

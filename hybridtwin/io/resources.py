@@ -1,0 +1,61 @@
+"""Each step's memory, for Snakemake's scheduler (``resources: mem_mb``): on a cluster the SLURM executor asks
+for it per job, and ``snakemake --resources mem_mb=N`` keeps the steps running side by side on one machine
+within N MB.
+
+A step's peak grows with the production log (every part is read, gated, predicted); fits and choices work on
+seeded samples. The estimate is a line through two measured runs of the demo plant, alone on 2 cores: 70,000
+parts (9.8 MB of CSV; ``benchmarks/results/workflow_timing_1046381.md``) and 10,000,000 (1.40 GB;
+``plant_scale_6c33722.md``), each step's peak from Snakemake's benchmark files, with a margin for what those
+files' sampling misses (the intervals measured 4.0 GB there and 4.8 GiB in their own process).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+# step (rule, with its wildcard where it has one) -> (peak MB on the demo, peak MB on 10,000,000 parts)
+MEASURED = {
+    "demo_data": (222, 3102),
+    "validate_inputs_doe": (123, 123),
+    "validate_inputs_production": (192, 3902),
+    "validate_inputs_matched": (2, 1242),
+    "support_gate": (295, 1497),
+    "residuals": (280, 1497),
+    "tune_residual": (291, 1496),
+    "tune_worker": (291, 1496),
+    "residual_cv_filtered": (249, 1742),
+    "residual_cv_unfiltered": (276, 3106),
+    "residual_fit_filtered": (180, 1560),
+    "residual_fit_unfiltered": (260, 1559),
+    "predict_production": (304, 2957),
+    "matched_check": (286, 1586),
+    "model_extension": (277, 3073),
+    "production_predictions": (200, 1027),
+    "prediction_intervals": (429, 4017),
+    "propose_simulations": (759, 3003),
+    "peer_cokriging": (1138, 2685),
+    "peer_gp_discrepancy": (431, 2043),
+    "diagnose": (357, 2372),
+    "sensitivity": (7, 1505),
+}
+MEASURED_GB = (0.0098, 1.405)  # the two runs' production CSV, GB
+BYTES_PER_PART = 140  # the demo's production CSV (17 columns), for a demo plant not made yet
+MARGIN = 1.3  # on what grows with the log: the benchmark files sample the memory less often than it peaks
+FLOOR_MB = 500  # a step's Python process with pandas, scikit-learn and the package imported
+
+
+def memory_mb(step: str, production_gb: float) -> int:
+    """MB to ask for ``step`` on a production log of ``production_gb`` GB of CSV (a step not measured: the floor;
+    the report's and the tables' small steps stay near it at any size)."""
+    demo, large = MEASURED.get(step, (FLOOR_MB, FLOOR_MB))
+    per_gb = max(0.0, (large - demo) / (MEASURED_GB[1] - MEASURED_GB[0]))
+    estimate = max(FLOOR_MB, demo) + MARGIN * per_gb * max(0.0, production_gb - MEASURED_GB[0])
+    return int(-(-estimate // 100) * 100)  # up to the next 100 MB
+
+
+def production_gb(path, demo_parts: int | None = None) -> float:
+    """The production log's size in GB: the file's, or for the demo plant not made yet ``demo_parts`` parts'."""
+    file = Path(path)
+    if file.is_file():
+        return file.stat().st_size / 1e9
+    return (demo_parts or 0) * BYTES_PER_PART / 1e9
