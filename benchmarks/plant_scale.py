@@ -1,6 +1,7 @@
 """The whole workflow on a large demo plant: wall time, and per rule time and peak memory.
 
     python benchmarks/plant_scale.py --rows 1000000
+    python benchmarks/plant_scale.py --rows 10000000 --mem-mb 5500   # steps side by side within 5,500 MB
 
 Runs ``snakemake --cores 2`` on the default config with ``demo.n_production`` set to ``--rows``, in
 its own results folder (``runs/scale_<rows>``, so the demo's results stay): first only the demo plant's
@@ -59,6 +60,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", type=int, default=1_000_000)
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--mem-mb", type=int, help="a memory budget for the steps side by side (--resources mem_mb)")
     args = parser.parse_args()
     results = f"runs/scale_{args.rows}"
     config = yaml.safe_load(Path("config/config.yaml").read_text())
@@ -68,6 +70,7 @@ def main() -> None:
     with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as handle:
         yaml.safe_dump(config, handle)
     command = ["snakemake", "--cores", str(args.cores), "--configfile", handle.name]
+    budget = ["--resources", f"mem_mb={args.mem_mb}"] if args.mem_mb else []
     # the demo plant's data first, apart: a plant's own run starts from its files
     start = time.perf_counter()
     made = subprocess.run([*command[:1], *config["data"].values(), *command[1:]])  # targets before --configfile
@@ -75,13 +78,14 @@ def main() -> None:
     if made.returncode == 0:
         clear_results(Path(results), keep=Path(config["data"]["doe"]).parent.name)
         start = time.perf_counter()
-        run = subprocess.Popen(command)
+        run = subprocess.Popen([*command, *budget])
         peak, at_peak = peak_memory_of(run)
         seconds = time.perf_counter() - start
     else:
         run, peak, at_peak, seconds = made, 0, [], 0.0
     print(
-        f"\n{args.rows:,} production rows, {args.cores} cores: the workflow on the plant's files in {seconds:.0f} s "
+        f"\n{args.rows:,} production rows, {args.cores} cores"
+        f"{f', a budget of {args.mem_mb:,} MB (--resources mem_mb)' if args.mem_mb else ''}: the workflow on the plant's files in {seconds:.0f} s "
         f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once (rule scripts then "
         f"running: {', '.join(at_peak) or 'none'}); generating the demo plant's files before it took "
         f"{made_seconds:.0f} s\n"
