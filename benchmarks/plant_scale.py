@@ -83,9 +83,10 @@ def main() -> None:
         seconds = time.perf_counter() - start
     else:
         run, peak, at_peak, seconds = made, 0, [], 0.0
+    within = f", a budget of {args.mem_mb:,} MB (--resources mem_mb)" if args.mem_mb else ""
     print(
-        f"\n{args.rows:,} production rows, {args.cores} cores"
-        f"{f', a budget of {args.mem_mb:,} MB (--resources mem_mb)' if args.mem_mb else ''}: the workflow on the plant's files in {seconds:.0f} s "
+        f"\n{args.rows:,} production rows, {args.cores} cores{within}: the workflow on the plant's files in "
+        f"{seconds:.0f} s "
         f"(exit {run.returncode}), at most {peak / 2**30:.2f} GiB in all its processes at once (rule scripts then "
         f"running: {', '.join(at_peak) or 'none'}); generating the demo plant's files before it took "
         f"{made_seconds:.0f} s\n"
