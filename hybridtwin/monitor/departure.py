@@ -5,8 +5,9 @@ than every part that calibrated the models' in-control error) is not judged: the
 so its residual is no evidence that the plant changed. A batch that moves its settings there part-way (a setting
 stepped to a level the log never had, a new campaign) then goes quiet on the chart from that part on, and "in
 control" would overstate what was checked. :func:`departure` finds that part and says which settings moved: a
-setting that steps there (:func:`hybridtwin.monitor.changes.step_of`), else settings beyond every logged part's,
-else the setting that moved furthest (their combination is new to the log).
+setting that steps there (:func:`hybridtwin.monitor.changes.step_of`; several at once: a new campaign), else
+settings beyond the log's range, else none of these (the parts are unlike what calibrated the models in another
+way: a combination of settings, or further from the simulations), with the setting that moved furthest.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from hybridtwin.monitor.changes import MIN_BEFORE, _step_text, _steps, two_level
 LEAST_AFTER = 50  # parts from the departure to the end of the batch
 GONE = 0.9  # at least this share of the parts since the departure is not judged
 JUDGED_BEFORE = 0.5  # and at least this share of the parts before it was
-BEYOND = 0.5  # a setting beyond every logged part's range on this share of the parts since names the departure
+BEYOND = 0.5  # a setting beyond the logged range on this share of the parts since names the departure
 
 
 @dataclass(frozen=True)
