@@ -106,14 +106,8 @@ def next_steps(watched) -> list[str]:
         return _after_departure(watched.departure)
     if change is None:  # an alarm not explained (the API's explain=False): nothing to learn before it is
         return []
-    steps = []
-    if change.proposed:
-        shown = ", ".join(f"{name}={value:.4g}" for name, value in change.proposed.items())
-        steps.append(
-            f"run the proposed simulations: {change.outside_support:.0%} of the parts since part "
-            f"{change.start_part:,} lie outside the support; simulate their typical setting ({shown}), add it "
-            "to the DoE, and the rerun proposes more (results/enrichment/proposed_simulations.csv)"
-        )
+    parts = f"the parts since part {change.start_part:,}"
+    steps = [_simulate(change.outside_support, parts, change.proposed)] if change.proposed else []
     if change.kind == UNEXPLAINED:
         # a shift no logged column explains may be a fault (a gauge, a worn insert): the models would learn it
         steps.append(
@@ -121,12 +115,7 @@ def next_steps(watched) -> list[str]:
             "insert, a material lot or a setting that is not logged?); if it is a fault, fix it rather than "
             "teach it to the models"
         )
-    what = "the offset, once the plant keeps it" if change.kind == UNEXPLAINED else "the change"
-    steps.append(
-        f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
-        f"models learn {what}: the rules that rerun are {RERUN}"
-    )
-    return steps
+    return [*steps, _append("the offset, once the plant keeps it" if change.kind == UNEXPLAINED else "the change")]
 
 
 def _after_departure(left) -> list[str]:
@@ -135,19 +124,24 @@ def _after_departure(left) -> list[str]:
     if left is None:
         return []
     parts = f"the parts since part {left.start_part:,}" if left.start_part > 1 else "the batch's parts"
-    steps = []
-    if left.outside_support > 0.5:
-        shown = ", ".join(f"{name}={value:.4g}" for name, value in left.proposed.items())
-        steps.append(
-            f"run the proposed simulations: {left.outside_support:.0%} of {parts} lie outside the support; simulate "
-            f"their typical setting ({shown}), add it to the DoE, and the rerun proposes more "
-            "(results/enrichment/proposed_simulations.csv)"
-        )
-    steps.append(
-        f"append the batch to the production log (config data.production) and rerun the workflow, so that the "
-        f"models learn the settings of {parts} and can judge them next time: the rules that rerun are {RERUN}"
+    steps = [_simulate(left.outside_support, parts, left.proposed)] if left.outside_support > 0.5 else []
+    return [*steps, _append(f"the settings of {parts} and can judge them next time")]
+
+
+def _simulate(outside: float, parts: str, setting: dict) -> str:
+    shown = ", ".join(f"{name}={value:.4g}" for name, value in setting.items())
+    return (
+        f"run the proposed simulations: {outside:.0%} of {parts} lie outside the support; simulate their typical "
+        f"setting ({shown}), add it to the DoE, and the rerun proposes more "
+        "(results/enrichment/proposed_simulations.csv)"
     )
-    return steps
+
+
+def _append(learnt: str) -> str:
+    return (
+        "append the batch to the production log (config data.production) and rerun the workflow, so that the "
+        f"models learn {learnt}: the rules that rerun are {RERUN}"
+    )
 
 
 def summary(watched) -> str:
