@@ -273,9 +273,8 @@ def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, inp
     calibrated = calibrate(predictions, production, doe, spec, threshold, settings, truth, units)
     shown = {"inputs": list(spec.inputs), "target": spec.target, "threshold": threshold}
     shown |= {key: settings[key] for key in ("unit", "csv", "level")}
-    manifest = predictor.manifest(doe, calibrated, shown, typical(production, in_support(predictions), columns), units)
-    # each input's lowest and highest logged setting: where a batch goes beyond the whole log (the monitor)
-    manifest["logged_range"] = {name: [float(log[name].min()), float(log[name].max())] for name in spec.inputs}
+    found = typical(production, in_support(predictions), columns)
+    manifest = predictor.manifest(doe, production, calibrated, shown, found, units)
     manifest["monitor"] = monitor.calibrate(
         predictions["measured"], calibrated, settings["level"], log, spec.inputs, spec.seed, causes
     )

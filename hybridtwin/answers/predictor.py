@@ -267,9 +267,11 @@ class Predictor:
         files.write_csv(answers, path, sep=fmt.sep, decimal=fmt.decimal)
 
 
-def manifest(doe: pd.DataFrame, calibrated, settings: dict, typical: dict[str, float], units: dict) -> dict:
+def manifest(
+    doe: pd.DataFrame, production: pd.DataFrame, calibrated, settings: dict, typical: dict[str, float], units: dict
+) -> dict:
     """predictor.json: what the predictor needs besides the model files. ``settings``: inputs, target, unit, csv,
-    level, threshold."""
+    level, threshold; ``production``: the log's inputs (their range: where a batch goes beyond the whole log)."""
     inputs = list(settings["inputs"])
     csv = settings["csv"]
     return {
@@ -284,6 +286,7 @@ def manifest(doe: pd.DataFrame, calibrated, settings: dict, typical: dict[str, f
             "encoding": csv.get("encoding", "utf-8"),
         },
         "doe_range": {name: [float(doe[name].min()), float(doe[name].max())] for name in inputs},
+        "logged_range": {name: [float(production[name].min()), float(production[name].max())] for name in inputs},
         "typical": {name: float(value) for name, value in typical.items()},
         "files": registry.FILES,
         "level": settings["level"],
