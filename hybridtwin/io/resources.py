@@ -22,7 +22,7 @@ MEASURED = {
     "support_gate": (295, 1497),
     "residuals": (280, 1497),
     "tune_residual": (291, 1496),
-    "tune_worker": (291, 1496),
+    "tune_worker": (291, 1496),  # not measured apart: a worker runs the study tune_residual runs with one worker
     "residual_cv_filtered": (249, 1742),
     "residual_cv_unfiltered": (276, 3106),
     "residual_fit_filtered": (180, 1560),
