@@ -8,11 +8,13 @@ from hybridtwin import pipeline
 from hybridtwin.answers import coverage
 from hybridtwin.answers.intervals import answer_columns
 from hybridtwin.answers.predictor import Predictor
+from hybridtwin.diagnosis.causes import LOOK_ROWS
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import files
 from hybridtwin.io.files import read_checked
 from hybridtwin.io.runner import demo_truth, run, spec_of
 from hybridtwin.models import peers
+from hybridtwin.monitor import calibration as monitor
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate
 from hybridtwin.report import plots
@@ -24,9 +26,12 @@ def main(snakemake):
     predictions = pipeline.read_predictions(
         found.hybrid_predictions, found.extension_predictions, found.peer_predictions, answer_columns()
     )
-    doe, log, matched = (read_checked(found[name]) for name in ("doe", "production", "matched"))
-    gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
+    doe, matched = read_checked(found.doe), read_checked(found.matched)
+    # on a long log, only the columns the answers and the monitor read
+    head = files.read_head(found.production, LOOK_ROWS)
+    log = read_checked(found.production, monitor.log_columns(head, spec.target, [*spec.inputs, *causes]))
+    gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     truth, noise = demo_truth(snakemake.input)
     settings = {**p.settings, "unit": p.unit, "csv": p.csv}
     found = pipeline.answers(predictions, log, doe, gate, spec, settings, causes, p.input_units, truth)

@@ -137,6 +137,7 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdi
     verdicts = coverage.trust_by_parts(frame, doe_range, inside, distance, reach)
     assert np.array_equal(verdicts, trust_levels(inside, amounts, distance, reach))
     assert {"validated", "calibrated", "extrapolation"} <= set(verdicts)
+    assert len({id(word) for word in verdicts}) == 3  # three shared words, not a string per row (a long log)
 
 
 def test_distance_bins_hold_enough_calibration_rows():

@@ -173,6 +173,31 @@ def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor
     assert calibration.limits(within, np.full(8000, np.nan), starts, 0)[0] == pytest.approx(raised.within_limit)
 
 
+def test_the_within_regime_quantities_by_stretches_of_whole_regimes_are_those_of_the_whole_log(monkeypatch):
+    rng = np.random.default_rng(5)
+    residual, group = _campaigns(rng, 8000, 150, 3.0)
+    residual[rng.random(8000) < 0.1] = np.nan  # parts not judged, as out of the support's far reach
+    log = pd.DataFrame({"campaign": [f"C{g:03d}" for g in group]})
+    models = np.where(np.arange(8000) % 7 == 0, "stack", "hybrid")  # interleaved model pairs inside a regime
+    args = (log, [], residual, residual / np.sqrt(10.0), np.full(8000, "r"), models)
+    whole = calibration.constants(*args)[1]
+    monkeypatch.setattr(calibration, "STRETCH_PARTS", 1000)  # eight stretches, cut at regime starts only
+    stretched = calibration.constants(*args)[1]
+    for name, value in whole.to_dict().items():
+        assert stretched.to_dict()[name] == pytest.approx(value, rel=1e-12), name
+    starts = np.r_[True, group[1:] != group[:-1]]
+    labels = regimes.labels(starts, models)
+    bounds = calibration._blocks(starts, 1000)
+    found = calibration.stretch_levels(residual, labels, bounds)
+    for got, expected in zip(found, chart.regime_levels(residual, labels)):
+        np.testing.assert_allclose(got, expected, rtol=1e-12)
+    np.testing.assert_allclose(
+        calibration.by_stretches(chart.within_residuals, bounds, residual, labels),
+        chart.within_residuals(residual, labels),
+        atol=1e-11,  # a running sum per stretch, not over the log: the last digits differ
+    )
+
+
 def test_the_floors_keep_independent_noise_quiet_through_the_same_charts():
     rng = np.random.default_rng(6)
     within, levels = [], []

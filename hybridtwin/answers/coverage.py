@@ -26,6 +26,7 @@ from hybridtwin.answers.regions import (
     distance_edges,
     outside_range_by_parts,
     region_label,
+    same_word,
 )
 from hybridtwin.answers.trust import EXTRAPOLATION, Reach, trust_levels
 from hybridtwin.io.files import in_support
@@ -78,7 +79,7 @@ def coverage_table(
     measured = np.asarray(measured, float)
     by_region = as_regions(region)
     region = by_region.interval
-    pooled = Regions.same(np.full(len(region), "all", dtype=object))
+    pooled = Regions.same(same_word(len(region), "all"))
     methods = {}
     for method, labels, method_edges in (("by_region", by_region, edges), ("pooled", pooled, [])):
         fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)

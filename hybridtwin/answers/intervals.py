@@ -29,7 +29,14 @@ import numpy as np
 import pandas as pd
 from scipy.stats import beta
 
-from hybridtwin.answers.regions import BEYOND_RANGE, IN_SUPPORT, MIN_CALIBRATION_ROWS, Regions, as_regions
+from hybridtwin.answers.regions import (
+    BEYOND_RANGE,
+    IN_SUPPORT,
+    MIN_CALIBRATION_ROWS,
+    Regions,
+    as_regions,
+    same_word,
+)
 from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models import compose, registry
@@ -250,7 +257,7 @@ class RegionIntervals:
         """The recommended model's name per row: the best of its region's ranking that has a value there
         (a model whose inputs a row lacks has none); the paper's gated hybrid where a region has no calibration."""
         region = as_regions(region).choice
-        chosen = np.full(len(region), registry.HYBRID_GATED.name, dtype=object)
+        chosen = same_word(len(region), registry.HYBRID_GATED.name)
         for name, order in self.ranking.items():
             rows = np.flatnonzero(region == name)
             for model in reversed(order):  # from the worst up: the best model with a value is written last

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from hybridtwin.answers.regions import same_word
+
 VALIDATED, CALIBRATED, EXTRAPOLATION = "validated", "calibrated", "extrapolation"
 TRUST = (VALIDATED, CALIBRATED, EXTRAPOLATION)
 
@@ -72,9 +74,9 @@ def _levels(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=No
         # in the validated domain as well: the simulations back such a setting, but the residual models, which
         # correct them, never learnt from a part like it
         novel = np.asarray(novelty, float) > reach.novelty
-    trust = np.where(
-        past_reach.any(axis=1) | too_far | novel, EXTRAPOLATION, np.where(inside & in_range, VALIDATED, CALIBRATED)
-    ).astype(object)
+    trust = same_word(len(distance), CALIBRATED)
+    trust[inside & in_range] = VALIDATED
+    trust[past_reach.any(axis=1) | too_far | novel] = EXTRAPOLATION
     return _Levels(trust, inside, amounts, distance, past_reach, too_far, novel)
 
 

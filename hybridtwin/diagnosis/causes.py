@@ -45,14 +45,15 @@ def unit_of(column: str, configured: dict | None = None) -> str:
 
 
 MAX_UNPARSED_STAMPS = 0.01  # a text column is read as timestamps when at most this share fails to parse
+LOOK_ROWS = 200  # the values a column is judged by before a whole log is parsed
 
 
 def looks_like_timestamps(values: pd.Series) -> bool:
-    """A text column whose first 200 values read as timestamps (a quick look before parsing a whole log); text
+    """A text column whose first LOOK_ROWS values read as timestamps (a quick look before parsing a whole log); text
     that reads as numbers is numbers (a stroke counter 130480 read as text would parse as dates, one by one)."""
     if pd.api.types.is_numeric_dtype(values):
         return False
-    head = values.iloc[:200]
+    head = values.iloc[:LOOK_ROWS]
     text = head.astype(str).str.strip()
     numbers = pd.to_numeric(text[text != ""], errors="coerce")  # a blank cell does not make a counter a date
     return not numbers.notna().all() and parse_timestamps(head) is not None

@@ -309,6 +309,18 @@ def read_checked(path, columns=None) -> pd.DataFrame:
     return pd.read_csv(path, keep_default_na=False, na_values=[""], usecols=None if columns is None else list(columns))
 
 
+def read_head(path, rows: int) -> pd.DataFrame:
+    """The first ``rows`` rows of a table the workflow wrote (CSV or Parquet): a look at what its columns hold
+    before a step reads only those it needs."""
+    if Path(path).suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        source = pq.ParquetFile(path)
+        first = next(source.iter_batches(batch_size=rows), None)
+        return source.schema_arrow.empty_table().to_pandas() if first is None else first.to_pandas()
+    return pd.read_csv(path, keep_default_na=False, na_values=[""], nrows=rows)
+
+
 def column_names(path) -> list[str]:
     """The columns of a table the workflow wrote (CSV or Parquet), read from its header or schema alone."""
     if Path(path).suffix == ".parquet":

@@ -39,6 +39,7 @@ FLOOR_LEVEL = 7.0
 BLOCK_PARTS = 1000  # the bootstrap draws runs of consecutive regimes at least this long
 SPREAD_PARTS = 3000  # stretches of the log between which a cause's slope is compared (about a third of a batch)
 SPREAD_REGIMES = 10  # and the regimes each holds at least
+STRETCH_PARTS = 1_000_000  # the within-regime quantities are computed this many parts at a time (whole regimes)
 LEAST_SCALE = 200  # judged within-regime parts a region needs for a scatter of its own
 
 
@@ -52,10 +53,11 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(values**2))) if len(values) else float("nan")
 
 
-def scales(raw, z, region, group, levels) -> tuple[dict, float, float, float]:
+def scales(raw, inside, region, levels) -> tuple[dict, float, float, float]:
     """The within-regime scatter per region and pooled (target's unit), z's scatter inside a regime, and the
-    spread of the regimes' levels beyond it; ``raw``: :func:`chart.within_residuals`, ``levels``:
-    :func:`chart.regime_levels`."""
+    spread of the regimes' levels beyond it; ``raw``: :func:`chart.within_residuals`, ``inside``: z against the
+    mean of its regime's judged parts before it (``regimes.within(z, group, 1)``: sqrt(1 + 1/n) taken out),
+    ``levels``: :func:`chart.regime_levels`."""
     region = np.asarray(region, object)
     pooled = _rms(raw)
     per_region = {
@@ -63,7 +65,6 @@ def scales(raw, z, region, group, levels) -> tuple[dict, float, float, float]:
         for name in sorted(set(region[np.isfinite(raw)].tolist()))
         if np.isfinite(raw[region == name]).sum() >= LEAST_SCALE
     }
-    inside = regimes.within(z, group, 1)  # z against the mean before it: sqrt(1 + 1/n) is taken out
     level_within = _rms(inside)
     means, counts, _ = levels
     between = np.sqrt(max(np.mean(means**2) - np.mean(level_within**2 / counts), 0.05**2)) if len(means) else 1.0
@@ -82,6 +83,23 @@ def _blocks(starts: np.ndarray, least: int, regimes: int = 1) -> list[tuple[int,
         bounds.pop()
     bounds.append(len(starts))
     return list(zip(bounds[:-1], bounds[1:]))
+
+
+def by_stretches(function, stretches: list[tuple[int, int]], *arrays) -> np.ndarray:
+    """``function`` of ``arrays`` (one value per part) on each stretch of whole regimes, joined: a part's value
+    inside its regime depends on its regime's parts alone, and the temporaries of a ten-million-part log are then
+    those of a stretch (:data:`STRETCH_PARTS`)."""
+    return np.concatenate([function(*(values[a:b] for values in arrays)) for a, b in stretches])
+
+
+def stretch_levels(z, group, stretches: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`chart.regime_levels` stretch by stretch (:func:`by_stretches`), in the same order: a regime's
+    label is numbered by its first part, so a later stretch's regimes come after an earlier one's."""
+    found = [chart.regime_levels(z[a:b], group[a:b]) for a, b in stretches]
+    return tuple(
+        np.concatenate(column)
+        for column in zip(*[(means, counts, at + a) for (means, counts, at), (a, _) in zip(found, stretches)])
+    )
 
 
 def limits(within: np.ndarray, level: np.ndarray, starts: np.ndarray, seed: int) -> tuple[float, float]:
@@ -112,9 +130,12 @@ def constants(
     starts = found.starts(log)
     group = regimes.labels(starts, models)
     residual = np.where(np.isnan(z), np.nan, residual)
+    stretches = _blocks(starts, STRETCH_PARTS)
     # each used twice: for the scales, then for the steps whose highest values set the limits
-    raw, levels = chart.within_residuals(residual, group), chart.regime_levels(z, group)
-    per_region, pooled, level_within, between = scales(raw, z, region, group, levels)
+    raw, levels = by_stretches(chart.within_residuals, stretches, residual, group), stretch_levels(z, group, stretches)
+    inside = by_stretches(lambda values, labels: regimes.within(values, labels, 1), stretches, z, group)
+    per_region, pooled, level_within, between = scales(raw, inside, region, levels)
+    del inside
     provisional = chart.Constants(per_region, pooled, level_within, between, np.inf, np.inf)
     within = chart.within_steps(residual, region, group, provisional, raw)
     level = chart.level_steps(z, group, provisional, levels)
@@ -131,11 +152,12 @@ def slopes(log, causes, residual, z, group, starts) -> dict:
 
     timing = clocks(log)
     judged = np.isfinite(z)
+    judged_residual, judged_group = residual[judged], group[judged]
     out = {}
     for column in sorted(causes):
         if column in log and column not in timing and pd.api.types.is_numeric_dtype(log[column]):
             x = log[column].to_numpy(float)
-            fitted, error = slope(x[judged], residual[judged], group[judged])
+            fitted, error = slope(x[judged], judged_residual, judged_group)
             if np.isfinite(error):
                 out[str(column)] = [fitted, error, slope_spread(x, residual, judged, group, starts)]
     return out
@@ -168,6 +190,17 @@ def counters(log) -> list[str]:
     from hybridtwin.monitor.changes import clocks
 
     return sorted(str(c) for c in clocks(log) if pd.api.types.is_numeric_dtype(log[c]))
+
+
+def log_columns(head: pd.DataFrame, target: str, keep=()) -> list[str]:
+    """The production log's columns :func:`calibrate` reads, judged from its first rows (``head``) as the regimes
+    and clocks judge them: every one but the measured target (the predictions carry it) and the timestamps (no
+    regime starts at a clock's tick, and a date has no slope); ``keep``: columns read whatever they hold (the
+    inputs and the extension's causes)."""
+    from hybridtwin.diagnosis.causes import looks_like_timestamps
+
+    kept = set(keep)
+    return [c for c in head.columns if c in kept or (c != target and not looks_like_timestamps(head[c]))]
 
 
 def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, causes=()) -> dict:
