@@ -340,6 +340,9 @@ def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: 
     return frame
 
 
+CHUNK_ROWS = 1_000_000
+
+
 def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None:
     """The table, when the file is clean: UTF-8, a rectangle with a unique header and no blank line, every
     configured column a finite number in every row. None otherwise (the careful reader then says why).
@@ -354,7 +357,9 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
         names = [name.strip() for name in header]
         if any(name == "" for name in names) or len(set(names)) < len(names) or not set(numeric) <= set(names):
             return None
-        frame = pd.read_csv(
+        # a million rows at a time, each chunk's text then held by Arrow: pandas' C parser makes a Python string per
+        # text cell, and a ten-million-part log's timestamps, coils and shifts held so took 2 GB at once
+        chunks = pd.read_csv(
             path,
             sep=fmt.sep,
             decimal=fmt.decimal,
@@ -366,7 +371,9 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
             skipinitialspace=True,
             encoding=fmt.codec,  # pandas >= 3.1 parses every number exactly (the round-trip converter)
             engine="c",
+            chunksize=CHUNK_ROWS,
         )
+        frame = pd.concat(chunks)
     except (OSError, ValueError, UnicodeDecodeError, StopIteration, csv.Error, pd.errors.ParserError):
         return None
     if frame.empty or not isinstance(frame.index, pd.RangeIndex):  # a wide first row became an index
