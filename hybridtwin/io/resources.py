@@ -5,8 +5,9 @@ within N MB.
 A step's peak grows with the production log (every part is read, gated, predicted); fits and choices work on
 seeded samples. The estimate is a line through two measured runs of the demo plant, alone on 2 cores: 70,000
 parts (9.8 MB of CSV; ``benchmarks/results/workflow_timing_1046381.md``) and 10,000,000 (1.40 GB;
-``plant_scale_6c33722.md``), each step's peak from Snakemake's benchmark files, with a margin for what those
-files' sampling misses (the intervals measured 4.0 GB there and 4.8 GiB in their own process).
+``plant_scale_6c33722.md``; the input check and the intervals from ``plant_scale_db976fd.md``), each step's peak
+from Snakemake's benchmark files, with a margin for what those files' sampling misses (the intervals measured
+3.2 GB there and 3.8 GiB in their own process).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from pathlib import Path
 MEASURED = {
     "demo_data": (222, 3102),
     "validate_inputs_doe": (123, 123),
-    "validate_inputs_production": (192, 3902),
+    "validate_inputs_production": (192, 2986),
     "validate_inputs_matched": (2, 1242),
     "support_gate": (295, 1497),
     "residuals": (280, 1497),
@@ -31,7 +32,7 @@ MEASURED = {
     "matched_check": (286, 1586),
     "model_extension": (277, 3073),
     "production_predictions": (200, 1027),
-    "prediction_intervals": (429, 4017),
+    "prediction_intervals": (429, 3222),
     "propose_simulations": (759, 3003),
     "peer_cokriging": (1138, 2685),
     "peer_gp_discrepancy": (431, 2043),
