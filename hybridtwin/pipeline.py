@@ -152,14 +152,14 @@ def _cv_summary(per_fold, y, oof, training: str, split: str) -> pd.DataFrame:
 def hybrid_predictions(production, residual_table, support_table, models: dict, oof: dict, spec: Spec):
     """Every production row's surrogate and hybrids (final and out-of-fold), from the two residual models
     (``models``/``oof`` by training set: 'filtered', 'unfiltered')."""
+    from hybridtwin.models.batches import by_parts
     from hybridtwin.paper.tables import production_predictions
 
-    X = production[list(spec.inputs)].to_numpy(float)
     return production_predictions(
         residual_table,
         support_table,
-        models["filtered"].predict(X),
-        models["unfiltered"].predict(X),
+        by_parts(models["filtered"].predict, production, spec.inputs),
+        by_parts(models["unfiltered"].predict, production, spec.inputs),
         oof["filtered"],
         oof["unfiltered"],
     )

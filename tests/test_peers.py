@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import xgboost as xgb
 from sklearn.gaussian_process import GaussianProcessRegressor
 
 from hybridtwin import crossval
@@ -317,6 +318,21 @@ def test_threads_share_the_rows_and_give_the_same_answers(case):
     assert [(c.start, c.stop) for c in batches.chunks(1250, 2)] == [(0, 700), (700, 1250)]
     assert [(c.start, c.stop) for c in batches.chunks(250, 5)] == [(0, 100), (100, 200), (200, 250)]
     assert batches.chunks(0, 2) == []
+
+
+def test_a_long_log_predicted_a_stretch_of_parts_at_a_time_gets_the_whole_matrix_answers(monkeypatch):
+    from hybridtwin.io.files import table_of
+
+    rng = np.random.default_rng(9)
+    frame = pd.DataFrame(rng.normal(size=(2500, 3)), columns=["a", "b", "c"]).assign(coil="C1")
+    model = xgb.XGBRegressor(n_estimators=20, max_depth=3, random_state=0).fit(frame[["b", "c"]], rng.normal(size=2500))
+    whole = model.predict(frame[["b", "c"]].to_numpy(float))
+    monkeypatch.setattr(batches, "PARTS_AT_ONCE", 1000)  # three stretches, the last of 500
+    assert np.array_equal(batches.by_parts(model.predict, frame, ["b", "c"]), whole)
+    assert len(batches.by_parts(model.predict, frame.iloc[:0], ["b", "c"])) == 0
+    # a table of per-part columns keeps them as they are: no stacked copy of them all
+    columns = {"x": np.arange(5.0), "y": np.ones(5)}
+    assert np.shares_memory(table_of(columns)["x"].to_numpy(), columns["x"])
 
 
 def test_the_comparison_scores_every_model_on_the_same_held_out_parts_by_hand():

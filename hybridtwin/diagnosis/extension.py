@@ -21,7 +21,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from hybridtwin.crossval import splice_out_of_fold, training_subset
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.causes import Term
-from hybridtwin.io.files import in_support
+from hybridtwin.io.files import in_support, table_of
 from hybridtwin.metrics import rmse, signed_rank_p_value
 from hybridtwin.models import compose
 from hybridtwin.models.registry import EXTENDED, EXTENDED_HYBRID, HYBRID, SURROGATE
@@ -268,7 +268,7 @@ def evaluate(parts: Parts, terms, fitting: Fitting, splits, choosing=None, match
     scored = {SURROGATE.name: surrogate, HYBRID.name: parts.hybrid}
     for model, values in zip((EXTENDED, EXTENDED_HYBRID), oof):
         scored[model.name] = splice_out_of_fold(final[model.name], rows, surrogate[rows] + values)
-    production = pd.DataFrame(
+    production = table_of(
         {
             **{model.column: final[model.name] for model in (EXTENDED, EXTENDED_HYBRID)},
             **{model.oof_column: scored[model.name] for model in (EXTENDED, EXTENDED_HYBRID)},

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.crossval import in_support_out_of_period, training_subset
-from hybridtwin.io.files import in_support
+from hybridtwin.io.files import in_support, table_of
 from hybridtwin.models import registry
 from hybridtwin.models.batches import chunks
 
@@ -93,9 +93,7 @@ def fit_peer(
     honest = final.copy()
     values = in_support_out_of_period(model, production.iloc[inside][inputs], model.training_rows_, n_folds, scored)
     honest[inside[scored]] = as_target(name, values, surrogate[inside[scored]])
-    return PeerFit(
-        model, pd.DataFrame({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_)
-    )
+    return PeerFit(model, table_of({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_))
 
 
 def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:

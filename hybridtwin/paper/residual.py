@@ -11,6 +11,7 @@ import xgboost as xgb
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 
 from hybridtwin.crossval import rows_of, training_subset
+from hybridtwin.io.files import table_of
 from hybridtwin.models.registry import SURROGATE
 
 log = logging.getLogger(__name__)
@@ -91,7 +92,7 @@ def approximate_residuals(surrogate, production: pd.DataFrame, inputs, target: s
     prediction and its predictive std (the simulator was not run at these inputs: the surrogate stands in)."""
     mean, std = surrogate.predict(production[list(inputs)], return_std=True)
     measured = production[target].to_numpy(float)
-    return pd.DataFrame(
+    return table_of(
         {
             "measured": measured,
             SURROGATE.column: mean,

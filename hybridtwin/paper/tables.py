@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.crossval import splice_out_of_fold
-from hybridtwin.io.files import in_support
+from hybridtwin.io.files import in_support, table_of
 from hybridtwin.metrics import rmse, scores
 from hybridtwin.models import compose
 from hybridtwin.models.registry import HYBRID, HYBRID_GATED, HYBRID_UNFILTERED, SURROGATE
@@ -160,7 +160,7 @@ def production_predictions(
     final = compose.hybrids(surrogate, filtered, inside, unfiltered)
     honest = compose.hybrids(surrogate, filtered_cv, inside, unfiltered_cv)
     models = [model for model in (HYBRID, HYBRID_GATED, HYBRID_UNFILTERED) if model.name in final]
-    return pd.DataFrame(
+    return table_of(
         {
             "row": np.arange(n),
             "in_support": inside,
