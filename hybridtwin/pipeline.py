@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.io.files import column_names, in_support, read_checked, side_by_side
+from hybridtwin.io.files import column_names, in_support, read_checked, side_by_side, table_of
 from hybridtwin.models import registry
 
 
@@ -78,27 +78,32 @@ def residuals(surrogate_model, production: pd.DataFrame, spec: Spec, inside) -> 
     return table
 
 
-def _training(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec, training: str, sample=None):
-    """The rows a residual model trains on, their inputs as a matrix and their residuals. ``sample(n)``: the
-    positions among those rows that a row-capped model fits on (``RowCapped.fit_rows``), taken before the matrix
-    is made: a final fit on ten million parts holds half a million of them, not every one."""
+def _training(inputs: np.ndarray, residual_table: pd.DataFrame, training: str, sample=None):
+    """The rows a residual model trains on, their inputs' matrix and their residuals (``inputs``: every production
+    row's, :func:`input_matrix`). ``sample(n)``: the positions among those rows that a row-capped model fits on
+    (``RowCapped.fit_rows``): a final fit on ten million parts holds half a million of them, not every one."""
     from hybridtwin.paper.residual import training_rows
 
     rows = training_rows(residual_table["in_support"], training)
     if sample is not None:
         rows = rows[sample(len(rows))]
-    inputs = production[list(spec.inputs)]
-    # with every row the matrix itself: a log of millions of parts is not copied twice
-    X = inputs.to_numpy(float) if len(rows) == len(inputs) else inputs.iloc[rows].to_numpy(float)
+    # with every row the matrix itself: a log of millions of parts is not copied
+    X = inputs if len(rows) == len(inputs) else inputs[rows]
     return rows, X, residual_table["residual_approx"].to_numpy(float)[rows]
 
 
-def residual_model(production, residual_table, spec: Spec, training: str, params: dict):
-    """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all)."""
+def input_matrix(production: pd.DataFrame, spec: Spec) -> np.ndarray:
+    """The production's inputs as the residual models read them (a step reads it with ``files.read_matrix``)."""
+    return production[list(spec.inputs)].to_numpy(float)
+
+
+def residual_model(inputs, residual_table, spec: Spec, training: str, params: dict):
+    """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all);
+    ``inputs``: every production row's inputs (:func:`input_matrix`)."""
     from hybridtwin.paper.residual import make_model
 
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
-    _, X, y = _training(production, residual_table, spec, training, getattr(model, "fit_rows", None))
+    _, X, y = _training(inputs, residual_table, training, getattr(model, "fit_rows", None))
     return model.fit(X, y)
 
 
@@ -109,7 +114,7 @@ class ResidualCV:
     table: pd.DataFrame  # Table 3's row (the filtered model)
 
 
-def residual_cv(production, residual_table, spec: Spec, training: str, params: dict) -> ResidualCV:
+def residual_cv(inputs, residual_table, spec: Spec, training: str, params: dict) -> ResidualCV:
     """Step 5b: the residual model with the tuned hyperparameters, cross-validated.
 
     Table 3 is the paper's shuffled K-fold CV, on a split other than the tuning's (so the score is not the winning
@@ -120,8 +125,7 @@ def residual_cv(production, residual_table, spec: Spec, training: str, params: d
     from hybridtwin.crossval import capped_note, cross_validate, ids_of, period_folds
     from hybridtwin.paper.residual import evaluation_seed, make_model
 
-    rows, X, y = _training(production, residual_table, spec, training)
-    del production  # its matrix X is all the CV reads of it (1 GB on ten million parts)
+    rows, X, y = _training(inputs, residual_table, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
     periods = period_folds(len(y), spec.folds)
     per_period, oof = cross_validate(model, X, y, spec.folds, spec.seed, splits=periods)
@@ -132,7 +136,7 @@ def residual_cv(production, residual_table, spec: Spec, training: str, params: d
         per_fold, shuffled, split = per_period, oof, f"{spec.folds} folds of consecutive parts (periods)"
     table = _cv_summary(per_fold, y, shuffled, training, split + capped_note(spec.max_train_rows, len(y)))
     fold = ids_of(periods, len(y))
-    return ResidualCV(per_fold, pd.DataFrame({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
+    return ResidualCV(per_fold, table_of({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
 
 
 def _cv_summary(per_fold, y, oof, training: str, split: str) -> pd.DataFrame:

@@ -12,7 +12,7 @@ from hybridtwin.io.runner import run, spec_of
 def main(snakemake):
     spec = spec_of(snakemake)
     result = pipeline.residual_cv(
-        files.read_checked(snakemake.input.production, spec.inputs),
+        files.read_matrix(snakemake.input.production, spec.inputs),
         files.read_checked(snakemake.input.residuals, ["residual_approx", "in_support"]),
         spec,
         snakemake.wildcards.training,

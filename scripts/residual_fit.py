@@ -9,7 +9,7 @@ from hybridtwin.paper import residual
 def main(snakemake):
     spec = spec_of(snakemake)
     model = pipeline.residual_model(
-        files.read_checked(snakemake.input.production, spec.inputs),
+        files.read_matrix(snakemake.input.production, spec.inputs),
         files.read_checked(snakemake.input.residuals, ["residual_approx", "in_support"]),
         spec,
         snakemake.wildcards.training,

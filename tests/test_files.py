@@ -63,6 +63,13 @@ def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float
     pd.testing.assert_frame_equal(files.read_checked(tmp_path / "table.parquet", ["flag", "x"]), as_csv[["x", "flag"]])
     with pytest.raises(ValueError, match="'missing'"):
         files.read_checked(tmp_path / "table.parquet", ["x", "missing"])
+    # a matrix of number columns in the order asked for, from either format, with no table beside it
+    numbers = ["n", "x"]  # not the file's order
+    for kind in ("csv", "parquet"):
+        matrix = files.read_matrix(tmp_path / f"table.{kind}", numbers)
+        assert np.array_equal(matrix, as_csv[numbers].to_numpy(float), equal_nan=True), kind
+    with pytest.raises(ValueError, match="'missing'"):
+        files.read_matrix(tmp_path / "table.parquet", ["x", "missing"])
 
 
 @pytest.mark.parametrize("rows_per_group", [3, 100])

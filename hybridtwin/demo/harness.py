@@ -88,13 +88,17 @@ class Run:
         return self.residuals["residual_approx"].to_numpy(float)
 
     def residual_model(self, training: str = "filtered"):
-        return pipeline.residual_model(self.production, self.residuals, self.spec, training, self.params)
+        return pipeline.residual_model(self.inputs, self.residuals, self.spec, training, self.params)
+
+    @cached_property
+    def inputs(self) -> np.ndarray:
+        """Every part's inputs as the residual models read them."""
+        return pipeline.input_matrix(self.production, self.spec)
 
     @cached_property
     def hybrid(self) -> np.ndarray:
         """The paper's hybrid of every part, from the final filtered model (in-sample in the support)."""
-        X = self.production[list(self.spec.inputs)].to_numpy(float)
-        return self.residuals[registry.SURROGATE.column].to_numpy(float) + self.residual_model().predict(X)
+        return self.residuals[registry.SURROGATE.column].to_numpy(float) + self.residual_model().predict(self.inputs)
 
     def diagnose(self, settings):
         return pipeline.diagnose(self.production, self.residuals, self.spec, settings, self.surrogate)
@@ -124,17 +128,15 @@ class Run:
 
     @cached_property
     def residual_cv(self) -> pipeline.ResidualCV:
-        return pipeline.residual_cv(self.production, self.residuals, self.spec, "filtered", self.params)
+        return pipeline.residual_cv(self.inputs, self.residuals, self.spec, "filtered", self.params)
 
     @cached_property
     def hybrid_predictions(self) -> pd.DataFrame:
         """The workflow's hybrid table (the paper's filtered model only: the banks do not compare the unfiltered)."""
         from hybridtwin.paper.tables import production_predictions
 
-        X = self.production[list(self.spec.inputs)].to_numpy(float)
-        return production_predictions(
-            self.residuals, self.support.table, self.residual_model().predict(X), None, self.residual_cv.oof, None
-        )
+        final = self.residual_model().predict(self.inputs)
+        return production_predictions(self.residuals, self.support.table, final, None, self.residual_cv.oof, None)
 
     def extension(self, terms):
         """The extension scored out of fold on the hybrid's own split, as rule model_extension does."""

@@ -24,6 +24,7 @@ from hybridtwin.diagnosis.causes import Term
 from hybridtwin.io.files import in_support, table_of
 from hybridtwin.metrics import rmse, signed_rank_p_value
 from hybridtwin.models import compose
+from hybridtwin.models.batches import by_parts
 from hybridtwin.models.registry import EXTENDED, EXTENDED_HYBRID, HYBRID, SURROGATE
 
 log = logging.getLogger(__name__)
@@ -193,27 +194,30 @@ class Parts:
     def surrogate(self) -> np.ndarray:
         return self.residuals[SURROGATE.column].to_numpy(float)
 
-    def matrix(self, inputs) -> np.ndarray:
-        return self.production[list(inputs)].to_numpy(float)
 
-
-def fit_models(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, fitting: Fitting) -> Models:
-    """The extension and the XGBoost remainder, both on a seeded sample of at most ``fitting.max_rows`` rows."""
-    rows = training_subset(len(residual), fitting.max_rows or len(residual), fitting.seed)
-    frame, X, residual = frame.iloc[rows], X[rows], residual[rows]
+def fit_models(frame: pd.DataFrame, residual: np.ndarray, terms, fitting: Fitting, rows) -> Models:
+    """The extension and the XGBoost remainder, both on a seeded sample of at most ``fitting.max_rows`` of the
+    ``rows`` (positions in ``frame`` and ``residual``): only the sample is copied, not every training row (a fold
+    of ten million parts)."""
+    rows = np.asarray(rows)
+    rows = rows[training_subset(len(rows), fitting.max_rows or len(rows), fitting.seed)]
+    frame, residual = frame.iloc[rows], residual[rows]
+    X = frame[list(fitting.inputs)].to_numpy(float)
     extension = DiscrepancyExtension(terms).fit(frame, residual)
     remainder = fitting.make_xgb().fit(X, residual - extension.predict(frame))
     return Models(extension, remainder)
 
 
-def cross_validated(frame: pd.DataFrame, X: np.ndarray, residual: np.ndarray, terms, fitting: Fitting, splits):
-    """Out-of-fold residual corrections of the extension and the extended hybrid."""
-    extended = np.empty(len(residual))
-    extended_hybrid = np.empty(len(residual))
+def cross_validated(frame: pd.DataFrame, residual: np.ndarray, terms, fitting: Fitting, splits, rows):
+    """Out-of-fold residual corrections of the extension and the extended hybrid on ``rows`` (positions in
+    ``frame`` and ``residual``, which ``splits`` index into): a fold's rows are taken as it needs them."""
+    extended = np.empty(len(rows))
+    extended_hybrid = np.empty(len(rows))
     for train, test in splits:
-        models = fit_models(frame.iloc[train], X[train], residual[train], terms, fitting)
-        extended[test] = models.extension.predict(frame.iloc[test])
-        extended_hybrid[test] = extended[test] + models.remainder.predict(X[test])
+        models = fit_models(frame, residual, terms, fitting, rows[train])
+        held = frame.iloc[rows[test]]
+        extended[test] = models.extension.predict(held)
+        extended_hybrid[test] = extended[test] + models.remainder.predict(held[list(fitting.inputs)].to_numpy(float))
     return extended, extended_hybrid
 
 
@@ -222,9 +226,9 @@ def fit_guarded(parts: Parts, terms, fitting: Fitting, choosing=None) -> tuple[M
     and the guard's choice on the out-of-support ``choosing`` parts (None: all) of whether the extended hybrid
     stands there (:func:`keeps_out_of_support`)."""
     rows = np.flatnonzero(parts.inside)
-    X = parts.matrix(fitting.inputs)
-    models = fit_models(parts.production.iloc[rows], X[rows], parts.residual[rows], terms, fitting)
-    terms_and_rest = (models.extension.predict(parts.production), models.remainder.predict(X))
+    models = fit_models(parts.production, parts.residual, terms, fitting, rows)
+    rest = by_parts(models.remainder.predict, parts.production, fitting.inputs)
+    terms_and_rest = (models.extension.predict(parts.production), rest)
     final = compose.extended(parts.surrogate, *terms_and_rest, parts.hybrid, parts.inside, True)
     choosing = np.ones(len(parts.inside), bool) if choosing is None else choosing
     final[EXTENDED_HYBRID.name], models.out_of_support = guard(
@@ -262,9 +266,7 @@ def evaluate(parts: Parts, terms, fitting: Fitting, splits, choosing=None, match
     models, final = fit_guarded(parts, terms, fitting, choosing)
     rows = np.flatnonzero(parts.inside)
     surrogate = parts.surrogate
-    oof = cross_validated(
-        parts.production.iloc[rows], parts.matrix(fitting.inputs)[rows], parts.residual[rows], terms, fitting, splits
-    )
+    oof = cross_validated(parts.production, parts.residual, terms, fitting, splits, rows)
     scored = {SURROGATE.name: surrogate, HYBRID.name: parts.hybrid}
     for model, values in zip((EXTENDED, EXTENDED_HYBRID), oof):
         scored[model.name] = splice_out_of_fold(final[model.name], rows, surrogate[rows] + values)

@@ -327,6 +327,25 @@ def read_head(path, rows: int) -> pd.DataFrame:
     return pd.read_csv(path, keep_default_na=False, na_values=[""], nrows=rows)
 
 
+def read_matrix(path, columns) -> np.ndarray:
+    """The ``columns`` of a table the workflow wrote, as one float matrix in that order, filled a column at a time:
+    a step that reads only a matrix of the inputs holds it once, not beside a table of the same numbers (0.9 GB
+    each on ten million parts)."""
+    columns = list(columns)
+    if Path(path).suffix != ".parquet":
+        return read_checked(path, columns)[columns].to_numpy(float)
+    import pyarrow.parquet as pq
+
+    source = pq.ParquetFile(path)
+    missing = [name for name in columns if name not in source.schema_arrow.names]
+    if missing:
+        raise ValueError(f"{str(path)!r} has no column {', '.join(map(repr, missing))}")
+    matrix = np.empty((source.metadata.num_rows, len(columns)))
+    for j, name in enumerate(columns):
+        matrix[:, j] = source.read(columns=[name]).column(0).to_numpy()
+    return matrix
+
+
 def column_names(path) -> list[str]:
     """The columns of a table the workflow wrote (CSV or Parquet), read from its header or schema alone."""
     if Path(path).suffix == ".parquet":

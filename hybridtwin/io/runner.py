@@ -54,5 +54,5 @@ def demo_truth(inputs) -> tuple:
         return None, None
     from hybridtwin.io import files
 
-    truth = files.read_checked(inputs.get("truth"))["truth_mm"].to_numpy(float)
+    truth = files.read_checked(inputs.get("truth"), ["truth_mm"])["truth_mm"].to_numpy(float)
     return truth, float(files.read_json(inputs.get("demo_spec"))["noise_mm"])
