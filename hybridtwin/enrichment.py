@@ -170,6 +170,12 @@ def propose(
     )
 
 
+def served_columns(head: pd.DataFrame, inputs) -> list[str]:
+    """The log's columns a proposal's ``serves`` reads besides the inputs, from its first rows (``head``): the text
+    ones (ids, lots, timestamps); a step on a long log reads only these with the inputs' matrix."""
+    return [c for c in head.columns if c not in set(inputs) and not pd.api.types.is_numeric_dtype(head[c])]
+
+
 def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
     """The production cluster a point serves: its rows, time span, and the main level of each id column."""
     if not len(rows):
