@@ -77,6 +77,7 @@ def test_parquet_tables_joined_into_one_csv_a_row_group_at_a_time_are_their_join
     from hybridtwin.io import files
 
     monkeypatch.setattr(files, "ROWS_PER_CHUNK", rows_per_group)
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # a row group's text in pieces
     table = _table_to_write().drop(columns="text")
     parts = [table[["x"]], table[["n", "flag"]], table[["x"]].rename(columns={"x": "y"}) * 2]
     paths = [tmp_path / f"part_{i}.parquet" for i in range(len(parts))]
@@ -153,12 +154,13 @@ def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path,
     arrow_writer, arrow_used = files._write_text_rows, []
     monkeypatch.setattr(files, "_write_text_rows", lambda *args: arrow_used.append(1) or arrow_writer(*args))
     monkeypatch.setattr(files, "ROWS_PER_CHUNK", 3)  # rows turned into text in chunks join up
+    monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # and a chunk's text in pieces
     for float_format, pandas_format in ((None, None), ("%.3g", "%.3g")):
         files.write_csv(frame, tmp_path / "ours.csv", float_format=float_format)
         expected = frame.assign(x=[float(pandas_format % v) for v in frame["x"]]) if pandas_format else frame
         expected.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")
         assert (tmp_path / "ours.csv").read_text() == (tmp_path / "pandas.csv").read_text()
-    assert len(arrow_used) == 2 * 3  # two formats, three chunks each
+    assert len(arrow_used) == 2 * 5  # two formats, three chunks each, in pieces of two rows (3 = 2 + 1)
     back = pd.read_csv(tmp_path / "ours.csv")
     assert back["x"].dtype == float and back["x"].tolist()[2] == 2.0  # a whole float stays a float
 

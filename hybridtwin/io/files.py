@@ -21,6 +21,7 @@ import pandas as pd
 FLOAT_FORMAT = "%.8g"
 LINES_PER_WRITE = 100_000  # quoted tables: lines joined in Python a batch at a time, not a whole log at once
 ROWS_PER_CHUNK = 1_000_000  # rows Arrow turns into CSV text, or writes as one Parquet row group, at a time
+ROWS_PER_TEXT = 250_000  # of those, rows whose CSV text is held at once (a million rows' text of 19 columns: 1 GB)
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -254,7 +255,7 @@ def _written_by_arrow(chunks, digits: int | None, sep: str, path) -> bool:
     Arrow, a chunk at a time (the text of a whole log at once took gigabytes); False where only pandas' writer
     writes a chunk right (the file then holds nothing usable)."""
     with open(path, "wb") as handle:
-        for number, chunk in enumerate(chunks):
+        for number, chunk in enumerate(_pieces(chunks)):
             as_text = _as_arrow_text(chunk, digits, sep)
             if as_text is None:
                 return False
@@ -262,6 +263,13 @@ def _written_by_arrow(chunks, digits: int | None, sep: str, path) -> bool:
                 handle.write((sep.join(as_text[0]) + "\n").encode())  # Arrow would quote the names
             _write_text_rows(*as_text, handle, sep)
     return True
+
+
+def _pieces(chunks):
+    """Each table of ``chunks`` in pieces of at most ROWS_PER_TEXT rows (an empty one as it is)."""
+    for chunk in chunks:
+        for start in range(0, max(len(chunk), 1), ROWS_PER_TEXT):
+            yield chunk.iloc[start : start + ROWS_PER_TEXT]
 
 
 def _write_text_rows(columns: dict, quoted: bool, handle, sep: str) -> None:
