@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.io.files import column_names, in_support, read_checked, side_by_side, table_of
+from hybridtwin.io.files import column_names, in_support, read_checked, read_matrix, side_by_side, table_of
 from hybridtwin.models import registry
 
 
@@ -79,27 +79,43 @@ def residuals(surrogate_model, production: pd.DataFrame, spec: Spec, inside) -> 
 
 
 def _training(inputs: np.ndarray, residual_table: pd.DataFrame, training: str, sample=None):
-    """The rows a residual model trains on, their inputs' matrix and their residuals (``inputs``: every production
-    row's, :func:`input_matrix`). ``sample(n)``: the positions among those rows that a row-capped model fits on
-    (``RowCapped.fit_rows``): a final fit on ten million parts holds half a million of them, not every one."""
+    """The rows a residual model trains on, their inputs' matrix and their residuals (``inputs``: the training
+    rows' inputs, :func:`training_inputs`). ``sample(n)``: the positions among those rows that a row-capped model
+    fits on (``RowCapped.fit_rows``): a final fit on ten million parts holds half a million of them, not every one."""
     from hybridtwin.paper.residual import training_rows
 
     rows = training_rows(residual_table["in_support"], training)
-    if sample is not None:
-        rows = rows[sample(len(rows))]
-    # with every row the matrix itself: a log of millions of parts is not copied
-    X = inputs if len(rows) == len(inputs) else inputs[rows]
-    return rows, X, residual_table["residual_approx"].to_numpy(float)[rows]
+    if len(inputs) != len(rows):
+        raise ValueError(f"{len(inputs)} rows of inputs for {len(rows)} {training} training rows")
+    residual = residual_table["residual_approx"].to_numpy(float)[rows]
+    if sample is None:
+        return rows, inputs, residual
+    kept = sample(len(rows))
+    return rows[kept], inputs[kept], residual[kept]
 
 
-def input_matrix(production: pd.DataFrame, spec: Spec) -> np.ndarray:
-    """The production's inputs as the residual models read them (a step reads it with ``files.read_matrix``)."""
-    return production[list(spec.inputs)].to_numpy(float)
+def read_training(production_path, residuals_path, spec: Spec, training: str) -> tuple[np.ndarray, pd.DataFrame]:
+    """What the residual model's steps read: the training rows' inputs as one matrix (those rows only, with no
+    table beside them: on a long log, 0.9 GB once) and the residual table's residuals and support."""
+    from hybridtwin.paper.residual import training_rows
+
+    residuals = read_checked(residuals_path, ["residual_approx", "in_support"])
+    rows = training_rows(residuals["in_support"], training)
+    return read_matrix(production_path, spec.inputs, rows), residuals
+
+
+def training_inputs(production: pd.DataFrame, residual_table: pd.DataFrame, spec: Spec, training: str) -> np.ndarray:
+    """The inputs' matrix of the rows a residual model trains on (a step reads it with ``files.read_matrix(path,
+    inputs, rows)``: only those rows, with no table beside it)."""
+    from hybridtwin.paper.residual import training_rows
+
+    rows = training_rows(residual_table["in_support"], training)
+    return production[list(spec.inputs)].to_numpy(float)[rows]
 
 
 def residual_model(inputs, residual_table, spec: Spec, training: str, params: dict):
     """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all);
-    ``inputs``: every production row's inputs (:func:`input_matrix`)."""
+    ``inputs``: those rows' inputs (:func:`training_inputs`)."""
     from hybridtwin.paper.residual import make_model
 
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
@@ -173,14 +189,16 @@ def hybrid_predictions(production, residual_table, support_table, models: dict, 
 
 
 def diagnose(production, residual_table, spec: Spec, settings, surrogate):
-    """The diagnosis of the in-support approximate residuals; ``settings``: :class:`diagnosis.Settings`;
+    """The diagnosis of the in-support approximate residuals (``production``: the log, or its in-support parts
+    read with ``files.read_checked(path, rows=...)``); ``settings``: :class:`diagnosis.Settings`;
     ``surrogate``: the fitted :class:`~hybridtwin.paper.surrogate.GPRSurrogate` (its noise and its correlation)."""
     from hybridtwin import diagnosis
     from hybridtwin.paper.surrogate import surrogate_latent_std
 
     inside = in_support(residual_table)
     return diagnosis.diagnose(
-        production.loc[inside].drop(columns=[spec.target]),
+        # by row labels: ``production`` may hold only the in-support parts, indexed by their rows
+        production.loc[np.flatnonzero(inside)].drop(columns=[spec.target]),
         residual_table.loc[inside, "residual_approx"],
         list(spec.inputs),
         [spec.target],

@@ -10,12 +10,13 @@ from hybridtwin.io.runner import run, spec_of
 
 
 def main(snakemake):
-    spec = spec_of(snakemake)
+    spec, training = spec_of(snakemake), snakemake.wildcards.training
+    inputs, residuals = pipeline.read_training(snakemake.input.production, snakemake.input.residuals, spec, training)
     result = pipeline.residual_cv(
-        files.read_matrix(snakemake.input.production, spec.inputs),
-        files.read_checked(snakemake.input.residuals, ["residual_approx", "in_support"]),
+        inputs,
+        residuals,
         spec,
-        snakemake.wildcards.training,
+        training,
         files.read_json(snakemake.input.best)["params"],
     )
     files.write_csv(result.per_fold, snakemake.output.folds)

@@ -7,12 +7,13 @@ from hybridtwin.paper import residual
 
 
 def main(snakemake):
-    spec = spec_of(snakemake)
+    spec, training = spec_of(snakemake), snakemake.wildcards.training
+    inputs, residuals = pipeline.read_training(snakemake.input.production, snakemake.input.residuals, spec, training)
     model = pipeline.residual_model(
-        files.read_matrix(snakemake.input.production, spec.inputs),
-        files.read_checked(snakemake.input.residuals, ["residual_approx", "in_support"]),
+        inputs,
+        residuals,
         spec,
-        snakemake.wildcards.training,
+        training,
         files.read_json(snakemake.input.best)["params"],
     )
     residual.save_model(model, snakemake.output.model, spec.inputs)

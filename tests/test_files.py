@@ -63,11 +63,17 @@ def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float
     pd.testing.assert_frame_equal(files.read_checked(tmp_path / "table.parquet", ["flag", "x"]), as_csv[["x", "flag"]])
     with pytest.raises(ValueError, match="'missing'"):
         files.read_checked(tmp_path / "table.parquet", ["x", "missing"])
+    # only some rows, indexed by their positions, from either format
+    for kind in ("csv", "parquet"):
+        some = files.read_checked(tmp_path / f"table.{kind}", ["x", "flag"], rows=np.array([1, 4, 6]))
+        pd.testing.assert_frame_equal(some, as_csv[["x", "flag"]].iloc[[1, 4, 6]])
     # a matrix of number columns in the order asked for, from either format, with no table beside it
     numbers = ["n", "x"]  # not the file's order
     for kind in ("csv", "parquet"):
         matrix = files.read_matrix(tmp_path / f"table.{kind}", numbers)
         assert np.array_equal(matrix, as_csv[numbers].to_numpy(float), equal_nan=True), kind
+        some = files.read_matrix(tmp_path / f"table.{kind}", numbers, np.array([0, 5]))
+        assert np.array_equal(some, matrix[[0, 5]], equal_nan=True), kind
     with pytest.raises(ValueError, match="'missing'"):
         files.read_matrix(tmp_path / "table.parquet", ["x", "missing"])
 

@@ -88,12 +88,13 @@ class Run:
         return self.residuals["residual_approx"].to_numpy(float)
 
     def residual_model(self, training: str = "filtered"):
-        return pipeline.residual_model(self.inputs, self.residuals, self.spec, training, self.params)
+        inputs = pipeline.training_inputs(self.production, self.residuals, self.spec, training)
+        return pipeline.residual_model(inputs, self.residuals, self.spec, training, self.params)
 
     @cached_property
     def inputs(self) -> np.ndarray:
         """Every part's inputs as the residual models read them."""
-        return pipeline.input_matrix(self.production, self.spec)
+        return self.production[list(self.spec.inputs)].to_numpy(float)
 
     @cached_property
     def hybrid(self) -> np.ndarray:
@@ -128,7 +129,8 @@ class Run:
 
     @cached_property
     def residual_cv(self) -> pipeline.ResidualCV:
-        return pipeline.residual_cv(self.inputs, self.residuals, self.spec, "filtered", self.params)
+        inputs = pipeline.training_inputs(self.production, self.residuals, self.spec, "filtered")
+        return pipeline.residual_cv(inputs, self.residuals, self.spec, "filtered", self.params)
 
     @cached_property
     def hybrid_predictions(self) -> pd.DataFrame:
