@@ -37,7 +37,7 @@ from hybridtwin.answers.regions import (
     as_regions,
     same_word,
 )
-from hybridtwin.io.files import in_support
+from hybridtwin.io.files import in_support, table_of
 from hybridtwin.metrics import rmse
 from hybridtwin.models import compose, registry
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
@@ -307,4 +307,4 @@ def recommended_prediction(
     # and each row's name made again as an object by the monitor's calibration (1.3 GB on ten million parts)
     models = pd.Series(chosen, dtype=object)
     frame = {RECOMMENDED_COLUMN: prediction, "recommended_model": models, "pred_lower": lower, "pred_upper": upper}
-    return pd.DataFrame(frame)
+    return table_of(frame)  # each column its own: a part of them is kept without the rest

@@ -212,6 +212,8 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
     residual = np.asarray(measured, float) - picked[RECOMMENDED_COLUMN].to_numpy(float)
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
     z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
+    log_parts = int(usable.sum())
+    del expected, usable  # a long log's arrays: only z and the residual go on
     models = picked["recommended_model"].to_numpy(object)
     found, fitted, group, starts = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
     return {
@@ -220,6 +222,6 @@ def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, ca
         "slopes": slopes(log, causes, residual, z, group, starts),
         "counters": counters(log),
         "limit": chart.LIMIT,
-        "log_parts": int(usable.sum()),
+        "log_parts": log_parts,
         "log_rows": len(log),
     }
