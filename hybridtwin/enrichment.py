@@ -172,8 +172,13 @@ def propose(
 
 def served_columns(head: pd.DataFrame, inputs) -> list[str]:
     """The log's columns a proposal's ``serves`` reads besides the inputs, from its first rows (``head``): the text
-    ones (ids, lots, timestamps); a step on a long log reads only these with the inputs' matrix."""
+    ones (ids, lots, timestamps); a step on a long log reads only these, at :func:`served_rows`."""
     return [c for c in head.columns if c not in set(inputs) and not pd.api.types.is_numeric_dtype(head[c])]
+
+
+def served_rows(proposal: Proposal) -> np.ndarray:
+    """The production rows the proposals bring into the support, in order: all of the log ``serves`` reads."""
+    return np.unique(np.concatenate([np.asarray(rows, int) for rows in proposal.brought_in] or [np.empty(0, int)]))
 
 
 def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
@@ -184,7 +189,7 @@ def _served(production: pd.DataFrame, rows: np.ndarray, inputs) -> str:
     for column in production.columns:
         if column in inputs:
             continue
-        values = production[column].iloc[rows]
+        values = production[column].loc[rows]  # by row label: ``production`` may hold only the served rows
         if values.dtype.kind in "OUT" or str(values.dtype) in ("string", "str"):
             as_time = parse_timestamps(values)  # ISO, else day-first (04.03.2026 is the 4th of March)
             if as_time is not None and as_time.notna().all():

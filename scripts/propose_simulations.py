@@ -13,9 +13,6 @@ from hybridtwin.report import plots
 def main(snakemake):
     p = snakemake.params
     doe, parts = read_checked(snakemake.input.doe), files.read_matrix(snakemake.input.production, p.inputs)
-    # besides the inputs' matrix, only the ids and times a proposal names (on a long log, 1 GB less)
-    head = files.read_head(snakemake.input.production, 1)
-    production = read_checked(snakemake.input.production, enrichment.served_columns(head, p.inputs))
     surrogate = GPRSurrogate.from_dict(files.read_json(snakemake.input.surrogate))
     settings = enrichment.EnrichmentSettings.from_config(p.settings, p.seed)
     proposal = enrichment.propose(
@@ -26,7 +23,10 @@ def main(snakemake):
         settings,
         surrogate_std=lambda X: surrogate.predict(X, return_std=True)[1],
     )
-    table = enrichment.proposals_table(proposal, production, p.inputs)
+    # besides the inputs' matrix, only the ids and times a proposal names, at the parts it serves (a long log's 1 GB)
+    head = files.read_head(snakemake.input.production, 1)
+    columns, rows = enrichment.served_columns(head, p.inputs), enrichment.served_rows(proposal)
+    table = enrichment.proposals_table(proposal, read_checked(snakemake.input.production, columns, rows), p.inputs)
     if proposal.share_before == 1.0:
         logging.warning(
             "every production part %s is already in the support: nothing to propose (empty table written)",

@@ -164,6 +164,14 @@ def test_the_proposals_table_by_hand():
         "parts_brought_in scaled to the whole log"
     )
     assert table.attrs["share_before"] == 0.4
+    # the same from only the text columns at the rows served, indexed by their rows (as a long log is read)
+    later = enrichment.Proposal(**{**proposal.__dict__, "brought_in": [np.array([5, 7, 8]), np.array([7], int)]})
+    log = production.assign(coil=[f"K{i // 7}" for i in range(10)])
+    served = enrichment.served_rows(later)
+    assert served.tolist() == [5, 7, 8] and enrichment.served_columns(log, ["x", "y"]) == ["coil"]
+    from_part = enrichment.proposals_table(later, log.loc[served, ["coil"]], ["x", "y"])
+    pd.testing.assert_frame_equal(from_part, enrichment.proposals_table(later, log, ["x", "y"]))
+    assert from_part["serves"].tolist() == ["rows 6-9; coil K1 (67%) and 1 more", "rows 8-8; coil K1 (100%)"]
     whole = enrichment.proposals_table(
         enrichment.Proposal(
             proposal.points, proposal.brought_in, [0.5, 0.6], 0.4, proposal.surrogate_std, [0.5, 0.6], 10, 10
