@@ -240,7 +240,8 @@ def extend(parts, terms, fitting, splits, choosing, matched=None):
 
 
 def peer(name: str, doe, production, residual_table, spec: Spec, settings: dict):
-    """One peer (:data:`registry.PEERS`) on the DoE and the in-support parts, with its honest values."""
+    """One peer (:data:`registry.PEERS`) on the DoE and the in-support parts, with its honest values
+    (``production``: the log, or only the rows a peer reads, ``models.peers.rows_read``, indexed by their rows)."""
     from hybridtwin.models.peers import fit_peer
 
     return fit_peer(name, doe, production, residual_table, spec.inputs, spec.target, settings, spec.seed, spec.folds)

@@ -81,19 +81,31 @@ def fit_peer(
     learnt = residuals["residual_approx" if spec.predicts == "residual" else "measured"].to_numpy(float)
     start = time.perf_counter()
     model = new_peer(name, settings, seed)
-    model.fit(production.iloc[inside][inputs], learnt[inside], X_low=doe[inputs], y_low=doe[target])
+    # rows by label: ``production`` may hold only the rows a peer reads (:func:`rows_read`), indexed by their rows
+    model.fit(production.loc[inside, inputs], learnt[inside], X_low=doe[inputs], y_low=doe[target])
     seconds = time.perf_counter() - start
-    # a peer predicts row by row against all its training points: on a large log, a seeded sample of rows
-    predicted = training_subset(len(production), settings.get("max_predicted", len(production)), seed + 2)
-    final = np.full(len(production), np.nan)
-    final[predicted] = as_target(name, model.predict(production.iloc[predicted][inputs]), surrogate[predicted])
+    predicted = predicted_rows(len(residuals), settings, seed)
+    final = np.full(len(residuals), np.nan)
+    final[predicted] = as_target(name, model.predict(production.loc[predicted, inputs]), surrogate[predicted])
     # in support, out of period as the hybrid is scored: each part from the peer refitted without its period's
     # training parts (the final model has seen its neighbours in time: its campaign, its coil)
     scored = np.union1d(np.flatnonzero(np.isfinite(final[inside])), model.training_rows_)
     honest = final.copy()
-    values = in_support_out_of_period(model, production.iloc[inside][inputs], model.training_rows_, n_folds, scored)
+    values = in_support_out_of_period(model, production.loc[inside, inputs], model.training_rows_, n_folds, scored)
     honest[inside[scored]] = as_target(name, values, surrogate[inside[scored]])
     return PeerFit(model, table_of({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_))
+
+
+def predicted_rows(n_rows: int, settings: dict, seed: int) -> np.ndarray:
+    """The log's rows a peer predicts: every one, or on a larger log a seeded sample of ``max_predicted`` (a peer
+    predicts row by row against all its training points)."""
+    return training_subset(n_rows, settings.get("max_predicted", n_rows), seed + 2)
+
+
+def rows_read(residuals: pd.DataFrame, settings: dict, seed: int) -> np.ndarray:
+    """The log's rows a peer reads: those it learns from (in support) and those it predicts (on a long log, a
+    fraction of it: the step reads only these)."""
+    return np.union1d(np.flatnonzero(in_support(residuals)), predicted_rows(len(residuals), settings, seed))
 
 
 def predictions_at(models: dict, X: pd.DataFrame, surrogate: np.ndarray, n_jobs: int = 1) -> dict[str, np.ndarray]:
