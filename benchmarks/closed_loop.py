@@ -147,6 +147,19 @@ def scores(folder: Path) -> dict:
     }
 
 
+def require_up_to_date(workdir: Path, config: Path) -> None:
+    """Stop unless the run to extend is up to date with this code: otherwise the rerun remakes the demo plant's
+    files too (the package's code is a param of every step) and loses the added DoE rows without a word."""
+    dry = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir), "-n"]
+        + ["--configfile", str(config)],
+        capture_output=True,
+        text=True,
+    )
+    if "Nothing to be done" not in dry.stdout + dry.stderr:
+        raise SystemExit(f"{workdir / 'results'} is not up to date with this code: run `snakemake --cores 2` first")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workdir", default=str(ROOT))
@@ -155,6 +168,7 @@ def main() -> None:
     args = parser.parse_args()
     workdir = Path(args.workdir)
     config = yaml.safe_load(Path(args.config).read_text())
+    require_up_to_date(workdir, Path(args.config))
     inputs, target = list(config["columns"]["inputs"]), config["columns"]["target"]
     gate = config.get("gate", {})
     k, percentile = int(gate.get("k", 5)), float(gate.get("percentile", 95))
