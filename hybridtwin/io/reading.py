@@ -351,7 +351,6 @@ def _joined(chunks) -> pd.DataFrame:
     for chunk in chunks:
         for name in chunk.columns:
             pieces.setdefault(name, []).append(chunk[name].copy())
-        del chunk
     return pd.DataFrame({name: pd.concat(pieces.pop(name)) for name in list(pieces)}, copy=False)
 
 

@@ -5,9 +5,9 @@ within N MB.
 A step's peak grows with the production log (every part is read, gated, predicted); fits and choices work on
 seeded samples. The estimate is a line through two measured runs of the demo plant, alone on 2 cores: 70,000
 parts (9.8 MB of CSV; ``benchmarks/results/workflow_timing_1046381.md``) and 10,000,000 (1.40 GB;
-``plant_scale_6c33722.md``; the steps whose memory was cut since from ``plant_scale_4c74d70.md``), each step's
-peak from Snakemake's benchmark files, with a margin for what those files' sampling misses (the intervals measured
-3.2 GB there and 4.0 GiB in their own process).
+``plant_scale_4c74d70.md``; the demo plant's own making from ``plant_scale_6c33722.md``), each step's peak from
+Snakemake's benchmark files, with a margin for what those files' sampling misses (the intervals measured 3.2 GB
+there and 3.86 GiB in their own process).
 """
 
 from __future__ import annotations
@@ -19,17 +19,17 @@ MEASURED = {
     "demo_data": (222, 3102),
     "validate_inputs_doe": (123, 123),
     "validate_inputs_production": (192, 2914),
-    "validate_inputs_matched": (2, 1242),
-    "support_gate": (295, 1497),
-    "residuals": (280, 1497),
-    "tune_residual": (291, 1496),
-    "tune_worker": (291, 1496),  # not measured apart: a worker runs the study tune_residual runs with one worker
+    "validate_inputs_matched": (2, 1014),
+    "support_gate": (295, 1521),
+    "residuals": (280, 1477),
+    "tune_residual": (291, 1485),
+    "tune_worker": (291, 1485),  # not measured apart: a worker runs the study tune_residual runs with one worker
     "residual_cv_filtered": (249, 942),
     "residual_cv_unfiltered": (276, 2260),
     "residual_fit_filtered": (180, 850),
-    "residual_fit_unfiltered": (260, 1559),
+    "residual_fit_unfiltered": (260, 1740),
     "predict_production": (304, 2131),
-    "matched_check": (286, 1586),
+    "matched_check": (286, 1582),
     "model_extension": (277, 2400),
     "production_predictions": (200, 771),
     "prediction_intervals": (429, 3204),
@@ -37,7 +37,7 @@ MEASURED = {
     "peer_cokriging": (1138, 2057),
     "peer_gp_discrepancy": (431, 1373),
     "diagnose": (357, 1343),
-    "sensitivity": (7, 1505),
+    "sensitivity": (7, 1764),
 }
 MEASURED_GB = (0.0098, 1.405)  # the two runs' production CSV, GB
 BYTES_PER_PART = 140  # the demo's production CSV (17 columns), for a demo plant not made yet
