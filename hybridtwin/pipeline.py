@@ -282,12 +282,11 @@ class Answers:
 
 def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, input_units, truth=None) -> Answers:
     """The answers' calibration: the intervals and the recommendation per region, the production's reach and the
-    predictor's manifest with the monitor's calibration. ``log``: the production log, every column in time order
-    (the monitor's regimes need its ids and shifts); ``settings``: the config's ``intervals`` plus the manifest's
-    ``unit`` and ``csv``; ``causes``: the extension's columns; ``input_units``: the config's ``units.inputs``."""
+    predictor's manifest but its ``monitor`` key (:func:`monitor.calibration.calibrate`). ``log``: the production
+    log's inputs and the extension's causes; ``settings``: the config's ``intervals`` plus the manifest's ``unit``
+    and ``csv``; ``causes``: the extension's columns; ``input_units``: the config's ``units.inputs``."""
     from hybridtwin.answers import predictor
     from hybridtwin.diagnosis.causes import unit_of
-    from hybridtwin.monitor import calibration as monitor
 
     columns = [*spec.inputs, *sorted(set(causes) - set(spec.inputs))]
     units = {name: unit_of(name, input_units) for name in columns}
@@ -298,9 +297,6 @@ def answers(predictions, log, doe, gate, spec: Spec, settings: dict, causes, inp
     shown |= {key: settings[key] for key in ("unit", "csv", "level")}
     found = typical(production, in_support(predictions), columns)
     manifest = predictor.manifest(doe, production, calibrated, shown, found, units)
-    manifest["monitor"] = monitor.calibrate(
-        predictions["measured"], calibrated, settings["level"], log, spec.inputs, spec.seed, causes
-    )
     return Answers(calibrated, production_reach(production, gate, spec, settings["blocks"]), manifest)
 
 

@@ -37,7 +37,6 @@ def main(snakemake):
     found = pipeline.answers(predictions, log, doe, gate, spec, settings, causes, p.input_units, truth)
     files.write_csv(found.calibrated.table, snakemake.output.table)
     files.write_json(found.reach.to_dict(), snakemake.output.reach)
-    files.write_json(found.manifest, snakemake.output.manifest)
     peer_models = {name: peers.load_peer(name, files.read_json(snakemake.input[f"peer_{name}"])) for name in p.peers}
     at_matched = pipeline.matched_predictions(
         matched,
@@ -60,6 +59,12 @@ def main(snakemake):
         plots.prediction_intervals(**shown, threshold=gate.threshold_, level=level, unit=p.unit),
         snakemake.output.figure,
     )
+    # the monitor's calibration last, from the log's record alone: every model's predictions and the intervals'
+    # calibration go first (1 GB on ten million parts)
+    record, manifest = monitor.record(predictions["measured"], found.calibrated, level), found.manifest
+    del predictions, found
+    manifest["monitor"] = monitor.calibrate(record, log, spec.inputs, spec.seed, causes)
+    files.write_json(manifest, snakemake.output.manifest)
     # here, not in a step of its own: a process start (2 s) for half a second of sweeps
     predictor = Predictor.load(Path(snakemake.output.manifest).parent)
     named = files.read_json(snakemake.input.summary)["selected"]

@@ -21,6 +21,7 @@ import pandas as pd
 import pytest
 import yaml
 
+from hybridtwin.io import files
 from hybridtwin.io.config import check
 from hybridtwin.io.data import Columns, check_support, load_datasets, warn_matched_outside
 from hybridtwin.io.errors import InputError
@@ -144,7 +145,7 @@ def test_clean_data_loads_without_warning(case):
 def test_a_clean_file_read_in_one_pass_is_what_the_careful_reader_gives(case, monkeypatch, sep, decimal, chunk):
     from hybridtwin.io import reading
 
-    monkeypatch.setattr(reading, "CHUNK_ROWS", chunk)  # 7: the file read in chunks, as a long log is
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", chunk)  # 7: the file read in chunks, as a long log is
 
     production = case.frames["production"]
     production["stamp"] = pd.date_range("2026-01-01", periods=30, freq="min").astype(str)
@@ -177,7 +178,7 @@ def test_the_one_pass_reader_leaves_wide_and_blank_rows_to_the_careful_reader(ca
     case.write_text("production", "\n".join([*lines[:3], lines[3].rsplit(",", 1)[0], *lines[4:]]) + "\n")
     assert reading._read_clean(case.path("production"), numeric, CsvFormat())["coil_id"].iloc[2] == ""
     assert read_csv(case.path("production"), "production")["coil_id"].iloc[2] == ""
-    monkeypatch.setattr(reading, "CHUNK_ROWS", 2)  # a broken row in the first chunk or a later one
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 2)  # a broken row in the first chunk or a later one
     for broken in (
         [lines[0], lines[1] + ",extra", *lines[2:]],  # a first row wider than the header
         [*lines[:3], lines[3] + ",extra", *lines[4:]],  # a later row wider than the header

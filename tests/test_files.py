@@ -51,7 +51,7 @@ def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float
     rounded alike, every other value and type kept (an empty text aside, which CSV cannot tell from missing)."""
     from hybridtwin.io import files
 
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 3)  # written a few rows at a time, in both formats
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 3)  # written a few rows at a time, in both formats
     frame = _table_to_write().assign(text=lambda table: table["text"].replace("", "e"))
     files.write_csv(frame, tmp_path / "table.csv", float_format)
     files.write_table(frame, tmp_path / "table.parquet", float_format)
@@ -82,7 +82,7 @@ def test_a_parquet_table_reads_back_as_its_csv_does(tmp_path, monkeypatch, float
 def test_parquet_tables_joined_into_one_csv_a_row_group_at_a_time_are_their_join(tmp_path, monkeypatch, rows_per_group):
     from hybridtwin.io import files
 
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", rows_per_group)
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", rows_per_group)
     monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # a row group's text in pieces
     table = _table_to_write().drop(columns="text")
     parts = [table[["x"]], table[["n", "flag"]], table[["x"]].rename(columns={"x": "y"}) * 2]
@@ -101,9 +101,9 @@ def test_parquet_tables_laid_out_otherwise_or_with_text_only_pandas_writes_are_j
     from hybridtwin.io import files
 
     table = pd.DataFrame({"x": [1.5, 2.5, 3.5, 4.5], "text": ["a", "b", "c\rd", "e"]})
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 2)
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 2)
     files.write_table(table[["text"]], tmp_path / "text.parquet")  # a lone carriage return in the second group
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 3)
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 3)
     files.write_table(table[["x"]], tmp_path / "x.parquet")  # row groups of 3 and 1 rows against 2 and 2
     files.write_table(table[["x"]].rename(columns={"x": "y"}), tmp_path / "y.parquet")
     for paths in (["x.parquet", "text.parquet"], ["y.parquet", "text.parquet"][::-1]):
@@ -111,7 +111,7 @@ def test_parquet_tables_laid_out_otherwise_or_with_text_only_pandas_writes_are_j
         expected = files.side_by_side([pd.read_parquet(tmp_path / name) for name in paths])
         files.write_csv(expected, tmp_path / "expected.csv")
         assert (tmp_path / "joined.csv").read_bytes() == (tmp_path / "expected.csv").read_bytes()
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 2)  # the same layout, but the text is for pandas' writer
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 2)  # the same layout, but the text is for pandas' writer
     files.write_table(table[["x"]], tmp_path / "x2.parquet")
     files.write_joined_csv([tmp_path / "x2.parquet", tmp_path / "text.parquet"], tmp_path / "joined.csv")
     files.write_csv(table, tmp_path / "expected.csv")
@@ -159,7 +159,7 @@ def test_a_plain_table_is_written_by_arrow_with_the_text_pandas_writes(tmp_path,
     )
     arrow_writer, arrow_used = files._write_text_rows, []
     monkeypatch.setattr(files, "_write_text_rows", lambda *args: arrow_used.append(1) or arrow_writer(*args))
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 3)  # rows turned into text in chunks join up
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 3)  # rows turned into text in chunks join up
     monkeypatch.setattr(files, "ROWS_PER_TEXT", 2)  # and a chunk's text in pieces
     for float_format, pandas_format in ((None, None), ("%.3g", "%.3g")):
         files.write_csv(frame, tmp_path / "ours.csv", float_format=float_format)
@@ -185,7 +185,7 @@ def test_text_with_separators_quotes_or_line_breaks_is_quoted_by_arrow_as_pandas
     arrow_writer, arrow_used = files._write_text_rows, []
     monkeypatch.setattr(files, "_write_text_rows", lambda *args: arrow_used.append(1) or arrow_writer(*args))
     monkeypatch.setattr(files, "LINES_PER_WRITE", 2)  # lines written in batches join up
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 4)  # and so do chunks of rows
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 4)  # and so do chunks of rows
     files.write_csv(frame, tmp_path / "ours.csv", float_format=None, sep=sep)
     frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n", sep=sep)
     assert (tmp_path / "ours.csv").read_bytes() == (tmp_path / "pandas.csv").read_bytes()
@@ -219,7 +219,7 @@ def test_any_other_table_is_written_by_pandas(tmp_path, frame):
 def test_a_chunk_only_pandas_writes_right_hands_the_whole_table_to_pandas(tmp_path, monkeypatch):
     from hybridtwin.io import files
 
-    monkeypatch.setattr(files, "ROWS_PER_CHUNK", 2)  # the first chunk is written by Arrow before the third is seen
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 2)  # the first chunk is written by Arrow before the third is seen
     frame = pd.DataFrame({"x": [1.5, 2.5, 3.5, 4.5, 5.5], "text": ["a", "b", "c", "d\re", "f"]})
     files.write_csv(frame, tmp_path / "ours.csv", float_format=None)
     frame.to_csv(tmp_path / "pandas.csv", index=False, lineterminator="\n")

@@ -6,6 +6,7 @@ import pytest
 from scipy.stats import beta
 
 from hybridtwin.answers import coverage, intervals, regions
+from hybridtwin.io import files
 from hybridtwin.models import stack
 from tests.conftest import says
 
@@ -60,6 +61,8 @@ def test_a_model_without_a_value_on_a_row_gives_way_to_the_next_in_its_regions_r
     assert picked["recommended_model"].tolist() == ["extended_hybrid", "hybrid"]
     assert picked["pred_recommended"].tolist() == [1.0, 1.2]
     assert np.isfinite(picked["pred_lower"]).all()
+    bare = intervals.recommended_prediction(fitted, predictions, np.array(["in_support"] * 2, object), 0.9, False)
+    pd.testing.assert_frame_equal(bare, picked[["pred_recommended", "recommended_model"]])
     unknown = intervals.recommended_prediction(fitted, predictions, np.array(["out_of_support_1"] * 2, object), 0.9)
     assert unknown["recommended_model"].tolist() == ["hybrid_gated"] * 2 and unknown["pred_lower"].isna().all()
 
@@ -123,7 +126,7 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdi
     doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
     calibration = (rng.random(2500) < 0.5) & (np.arange(2500) >= 700)  # the first part calibrates nothing
     whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range, calibration)
-    monkeypatch.setattr(regions, "ROWS_AT_ONCE", 700)  # four parts, the last short
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 700)  # four parts, the last short
     beyond, extremes = coverage.beyond_range(frame, doe_range, calibration)
     amounts = regions.outside_range(frame, doe_range)
     assert np.array_equal(beyond, (amounts != 0).any(axis=1).to_numpy()) and np.array_equal(beyond, whole_beyond)

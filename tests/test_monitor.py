@@ -2,6 +2,7 @@
 the head of its production log as the batch (in control), with a step added, and with bad input."""
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -284,8 +285,22 @@ def test_a_few_long_coils_are_still_ids():
 def test_expected_error_is_the_root_mean_square_of_the_regions_calibration(predictor):
     model, errors = next((m, r) for m, per in predictor.intervals.calibration.items() for r in per.items())
     region, values = errors
-    got = chart.expected_error(predictor.intervals, [model, "no_model"], [region, region])
-    assert got[0] == pytest.approx(np.sqrt(np.mean(np.square(values)))) and np.isnan(got[1])
+    got = chart.expected_error(predictor.intervals, [model, "no_model", None, model], [region, region, region, None])
+    assert got[0] == pytest.approx(np.sqrt(np.mean(np.square(values)))) and np.isnan(got[1:]).all()
+
+
+def test_the_logs_record_is_its_residual_in_the_errors_its_region_expects():
+    picked = pd.DataFrame({"pred_recommended": [1.0] * 5, "recommended_model": ["m"] * 5})
+    calibrated = SimpleNamespace(
+        intervals=SimpleNamespace(calibration={"m": {"in": [2.0, -2.0], "none": [], "exact": [0.0]}}),
+        region=SimpleNamespace(interval=np.array(["in", "in", "none", "in", "exact"], object)),
+        recommended=lambda level: picked,
+    )
+    found = calibration.record([5.0, np.nan, 3.0, -1.0, 2.0], calibrated, 0.9)
+    np.testing.assert_array_equal(found.residual, [4.0, np.nan, 2.0, -2.0, 1.0])
+    # not judged: no measure, no calibration, a calibration without error
+    np.testing.assert_array_equal(found.z, [2.0, np.nan, np.nan, -1.0, np.nan])
+    assert list(found.models) == ["m"] * 5 and list(found.region) == ["in", "in", "none", "in", "exact"]
 
 
 def test_the_logs_own_parts_are_in_control(predictor, parts):

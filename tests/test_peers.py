@@ -12,6 +12,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 
 from hybridtwin import crossval
 from hybridtwin.answers import intervals, regions
+from hybridtwin.io import files
 from hybridtwin.models import batches, cokriging, peers, registry
 from hybridtwin.models.cokriging import CoKriging
 from hybridtwin.models.gp_discrepancy import GPDiscrepancy
@@ -330,7 +331,7 @@ def test_a_long_log_predicted_a_stretch_of_parts_at_a_time_gets_the_whole_matrix
     frame = pd.DataFrame(rng.normal(size=(2500, 3)), columns=["a", "b", "c"]).assign(coil="C1")
     model = xgb.XGBRegressor(n_estimators=20, max_depth=3, random_state=0).fit(frame[["b", "c"]], rng.normal(size=2500))
     whole = model.predict(frame[["b", "c"]].to_numpy(float))
-    monkeypatch.setattr(batches, "PARTS_AT_ONCE", 1000)  # three stretches, the last of 500
+    monkeypatch.setattr(files, "ROWS_AT_ONCE", 1000)  # three stretches, the last of 500
     assert np.array_equal(batches.by_parts(model.predict, frame, ["b", "c"]), whole)
     assert len(batches.by_parts(model.predict, frame.iloc[:0], ["b", "c"])) == 0
     # a table of per-part columns keeps them as they are: no stacked copy of them all

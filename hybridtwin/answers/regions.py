@@ -24,10 +24,6 @@ def out_of_support_region(index: int) -> str:
     return f"out_of_support_{index}"
 
 
-# rows whose distances beyond the DoE's ranges are held at once on a long log (a dozen inputs: 100 MB)
-ROWS_AT_ONCE = 1_000_000
-
-
 def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> pd.DataFrame:
     """How far each row lies beyond the DoE's range (``doe_range``: each input's DoE minimum and maximum), per
     input, in the input's own unit (0 inside; 0 for a missing value)."""
@@ -40,9 +36,11 @@ def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]
 
 
 def outside_range_by_parts(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]):
-    """:func:`outside_range` of :data:`ROWS_AT_ONCE` rows at a time: (the rows' slice, their distances)."""
-    for start in range(0, len(frame), ROWS_AT_ONCE):
-        rows = slice(start, min(len(frame), start + ROWS_AT_ONCE))
+    """:func:`outside_range` of a piece of rows at a time (:func:`files.row_slices`): (the rows' slice, their
+    distances)."""
+    from hybridtwin.io.files import row_slices
+
+    for rows in row_slices(len(frame)):
         yield rows, outside_range(frame.iloc[rows], doe_range)
 
 

@@ -20,8 +20,17 @@ import pandas as pd
 
 FLOAT_FORMAT = "%.8g"
 LINES_PER_WRITE = 100_000  # quoted tables: lines joined in Python a batch at a time, not a whole log at once
-ROWS_PER_CHUNK = 1_000_000  # rows Arrow turns into CSV text, or writes as one Parquet row group, at a time
-ROWS_PER_TEXT = 250_000  # of those, rows whose CSV text is held at once (a million rows' text of 19 columns: 1 GB)
+# rows of a long log read, parsed, checked, predicted or written at a time (a dozen float columns: 100 MB): every
+# step that goes through a log of millions of parts in pieces takes them this long
+ROWS_AT_ONCE = 1_000_000
+# of a piece written as CSV, rows whose text is held at once (a million rows' text of 19 columns: 1 GB)
+ROWS_PER_TEXT = 250_000
+
+
+def row_slices(rows: int, at_least_one: bool = False) -> list[slice]:
+    """The pieces of :data:`ROWS_AT_ONCE` rows of a table of ``rows`` rows, in order (one empty piece for an empty
+    table if ``at_least_one``)."""
+    return [slice(start, start + ROWS_AT_ONCE) for start in range(0, max(rows, int(at_least_one)), ROWS_AT_ONCE)]
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -99,7 +108,7 @@ def write_csv(
     """
     digits = _significant_digits(float_format)
     with atomic_path(path) as temporary:
-        chunks = (frame.iloc[start : start + ROWS_PER_CHUNK] for start in range(0, max(len(frame), 1), ROWS_PER_CHUNK))
+        chunks = (frame.iloc[rows] for rows in row_slices(len(frame), at_least_one=True))
         if decimal == "." and _written_by_arrow(chunks, digits, sep, temporary):
             return
         if float_format is not None:
@@ -305,10 +314,10 @@ def write_table(frame: pd.DataFrame, path, float_format: str | None = FLOAT_FORM
 
     schema = pa.Schema.from_pandas(frame, preserve_index=False)
     with atomic_path(path) as temporary, pq.ParquetWriter(temporary, schema) as writer:
-        # ROWS_PER_CHUNK rows at a time (a row group each), rounded as they go: Arrow's copy and the rounded values
+        # ROWS_AT_ONCE rows at a time (a row group each), rounded as they go: Arrow's copy and the rounded values
         # of a chunk, not of the whole table
-        for start in range(0, len(frame), ROWS_PER_CHUNK):
-            chunk = frame.iloc[start : start + ROWS_PER_CHUNK]
+        for rows in row_slices(len(frame)):
+            chunk = frame.iloc[rows]
             if digits is not None:
                 rounded = {name: rounded_to_significant(chunk[name].to_numpy(float), digits) for name in floats}
                 chunk = chunk.assign(**rounded)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hybridtwin.io import files
 from hybridtwin.io.errors import InputError, other_csvs
 
 
@@ -340,9 +341,6 @@ def load_table(path, role: str, numeric: list[str], fmt: CsvFormat, config_key: 
     return frame
 
 
-CHUNK_ROWS = 1_000_000
-
-
 def _joined(chunks) -> pd.DataFrame:
     """The chunks of a CSV as one table, joined column by column: each chunk's columns are copied out of its blocks
     and the chunk let go, and each column's pieces let go once joined, so that the log is never held twice (the
@@ -382,7 +380,7 @@ def _read_clean(path, numeric: list[str], fmt: CsvFormat) -> pd.DataFrame | None
             skipinitialspace=True,
             encoding=fmt.codec,  # pandas >= 3.1 parses every number exactly (the round-trip converter)
             engine="c",
-            chunksize=CHUNK_ROWS,
+            chunksize=files.ROWS_AT_ONCE,
         )
         frame = _joined(chunks)
     except (OSError, ValueError, UnicodeDecodeError, StopIteration, csv.Error, pd.errors.ParserError):
@@ -428,12 +426,13 @@ def _numeric_extras(frame: pd.DataFrame, done: list[str], fmt: CsvFormat) -> pd.
 
 
 def _numbers(series: pd.Series, fmt: CsvFormat) -> pd.Series:
-    """A text column's values as numbers (NaN where one is not), CHUNK_ROWS at a time: parsing makes a Python
-    string per value, 0.6 GB for a whole column of a ten-million-part log."""
-    if len(series) <= CHUNK_ROWS:
+    """A text column's values as numbers (NaN where one is not), a piece of rows at a time
+    (:func:`files.row_slices`): parsing makes a Python string per value, 0.6 GB for a whole column of a
+    ten-million-part log."""
+    pieces = files.row_slices(len(series))
+    if len(pieces) <= 1:
         return _parsed(series, fmt)
-    starts = range(0, len(series), CHUNK_ROWS)
-    return pd.concat([_parsed(series.iloc[start : start + CHUNK_ROWS], fmt) for start in starts])
+    return pd.concat([_parsed(series.iloc[rows], fmt) for rows in pieces])
 
 
 def _parsed(series: pd.Series, fmt: CsvFormat) -> pd.Series:

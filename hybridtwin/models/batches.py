@@ -7,6 +7,8 @@ import os
 import numpy as np
 import pandas as pd
 
+from hybridtwin.io.files import row_slices
+
 # rows predicted at a time: the cross-covariances with the training rows (and SMT's per-input differences,
 # rows x training rows x inputs) stay in cache; co-kriging predicts 30% faster than with 500 rows at a time
 BATCH_ROWS = 100
@@ -20,19 +22,14 @@ def batched(predict, X: np.ndarray) -> np.ndarray:
     )
 
 
-PARTS_AT_ONCE = 1_000_000  # production rows whose input matrix is made at a time
-
-
 def by_parts(predict, frame: pd.DataFrame, columns) -> np.ndarray:
-    """``predict`` of the matrix of ``frame``'s ``columns``, PARTS_AT_ONCE rows at a time: a row's prediction does
-    not depend on the others, and the matrix of a ten-million-part log (0.9 GB beside its table) is never whole."""
+    """``predict`` of the matrix of ``frame``'s ``columns``, a piece of rows at a time (:func:`files.row_slices`):
+    a row's prediction does not depend on the others, and the matrix of a ten-million-part log (0.9 GB beside its
+    table) is never whole."""
     columns = list(columns)
     return (
         np.concatenate(
-            [
-                np.ravel(predict(frame.iloc[start : start + PARTS_AT_ONCE][columns].to_numpy(float)))
-                for start in range(0, len(frame), PARTS_AT_ONCE)
-            ]
+            [np.ravel(predict(frame.iloc[rows][columns].to_numpy(float))) for rows in row_slices(len(frame))]
         )
         if len(frame)
         else np.empty(0)

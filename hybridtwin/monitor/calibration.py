@@ -19,6 +19,8 @@ The workflow stores them in ``predictor.json`` (key ``monitor``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
@@ -203,25 +205,43 @@ def log_columns(head: pd.DataFrame, target: str, keep=()) -> list[str]:
     return [c for c in head.columns if c in kept or (c != target and not looks_like_timestamps(head[c]))]
 
 
-def calibrate(measured, calibrated, level: float, log, inputs, seed: int = 0, causes=()) -> dict:
-    """The ``monitor`` key of predictor.json from the prediction_intervals rule's calibration (its intervals,
-    honest predictions and regions), the log's measured target, the production log itself (every column, in
-    the same time order) and the columns of the extension's causes."""
+@dataclass
+class Record:
+    """The log's in-control record, part by part in time order: the honest residual of the recommended model, z
+    (the residual in the errors its interval region expects; NaN where not judged), each part's interval region
+    and its recommended model."""
+
+    residual: np.ndarray
+    z: np.ndarray
+    region: np.ndarray
+    models: np.ndarray
+
+
+def record(measured, calibrated, level: float) -> Record:
+    """The :class:`Record` of the log's measured target under the prediction_intervals rule's calibration (its
+    intervals, honest predictions and regions): all the monitor's calibration reads of it, so that every model's
+    predictions can go before it runs (0.7 GB on ten million parts)."""
     picked = calibrated.recommended(level)
     expected = chart.expected_error(calibrated.intervals, picked["recommended_model"], calibrated.region.interval)
     residual = np.asarray(measured, float) - picked[RECOMMENDED_COLUMN].to_numpy(float)
     usable = np.isfinite(expected) & (expected > 0) & np.isfinite(residual)
-    z = np.where(usable, residual / np.where(usable, expected, 1.0), np.nan)
-    log_parts = int(usable.sum())
-    del expected, usable  # a long log's arrays: only z and the residual go on
-    models = picked["recommended_model"].to_numpy(object)
-    found, fitted, group, starts = constants(log, inputs, residual, z, calibrated.region.interval, models, seed)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.divide(residual, expected, out=expected)  # in place: ten million parts
+    z[~usable] = np.nan
+    return Record(residual, z, calibrated.region.interval, picked["recommended_model"].to_numpy(object))
+
+
+def calibrate(found: Record, log, inputs, seed: int = 0, causes=()) -> dict:
+    """The ``monitor`` key of predictor.json from the log's :class:`Record`, the production log itself (every
+    column but the target and timestamps, in the same time order) and the columns of the extension's causes."""
+    residual, z = found.residual, found.z
+    regimes_found, fitted, group, starts = constants(log, inputs, residual, z, found.region, found.models, seed)
     return {
-        "regimes": found.to_dict(),
+        "regimes": regimes_found.to_dict(),
         **fitted.to_dict(),
         "slopes": slopes(log, causes, residual, z, group, starts),
         "counters": counters(log),
         "limit": chart.LIMIT,
-        "log_parts": log_parts,
+        "log_parts": int(np.isfinite(z).sum()),
         "log_rows": len(log),
     }

@@ -39,15 +39,13 @@ def expected_error(intervals, models, regions) -> np.ndarray:
     the calibration errors (NaN where the region has none)."""
     model_codes, model_names = pd.factorize(np.asarray(models, object))
     region_codes, region_names = pd.factorize(np.asarray(regions, object))
-    per_pair = np.full((len(model_names), len(region_names)), np.nan)
+    # a last row and column of NaN, where a row without a model or region (code -1) finds none
+    per_pair = np.full((len(model_names) + 1, len(region_names) + 1), np.nan)
     for (i, model), (j, region) in itertools.product(enumerate(model_names), enumerate(region_names)):
         errors = np.asarray(intervals.calibration.get(model, {}).get(region, []), float)
         if len(errors):
             per_pair[i, j] = float(np.sqrt(np.mean(errors**2)))
-    out = np.full(len(model_codes), np.nan)
-    known = (model_codes >= 0) & (region_codes >= 0)  # a row without a model or region has none
-    out[known] = per_pair[model_codes[known], region_codes[known]]
-    return out
+    return per_pair[model_codes, region_codes]
 
 
 def one_side(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
