@@ -28,9 +28,10 @@ def main(snakemake):
     )
     causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
     doe, matched = read_checked(found.doe), read_checked(found.matched)
-    # on a long log, only the columns the answers and the monitor read
-    head = files.read_head(found.production, LOOK_ROWS)
-    log = read_checked(found.production, monitor.log_columns(head, spec.target, [*spec.inputs, *causes]))
+    # on a long log, only the columns the answers read; those only the monitor reads (ids, counters) at its turn
+    read = monitor.log_columns(files.read_head(found.production, LOOK_ROWS), spec.target, [*spec.inputs, *causes])
+    answered = [name for name in read if name in {*spec.inputs, *causes}]
+    log, production = read_checked(found.production, answered), found.production
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     truth, noise = demo_truth(snakemake.input)
     settings = {**p.settings, "unit": p.unit, "csv": p.csv}
@@ -63,6 +64,7 @@ def main(snakemake):
     # calibration go first (1 GB on ten million parts)
     record, manifest = monitor.record(predictions["measured"], found.calibrated, level), found.manifest
     del predictions, found
+    log = files.side_by_side([log, read_checked(production, [name for name in read if name not in answered])])[read]
     manifest["monitor"] = monitor.calibrate(record, log, spec.inputs, spec.seed, causes)
     files.write_json(manifest, snakemake.output.manifest)
     # here, not in a step of its own: a process start (2 s) for half a second of sweeps
