@@ -6,8 +6,8 @@ A step's peak grows with the production log (every part is read, gated, predicte
 seeded samples. The estimate is a line through two measured runs of the demo plant, alone on 2 cores: 70,000
 parts (9.8 MB of CSV; ``benchmarks/results/workflow_timing_1046381.md``) and 10,000,000 (1.40 GB;
 ``plant_scale_4c74d70.md``; the demo plant's own making from ``plant_scale_6c33722.md``), each step's peak from
-Snakemake's benchmark files (the intervals from ``plant_scale_d60d04d.md``), with a margin for what those files'
-sampling misses (the intervals measured 2.93 GB there and 3.06 GB in their own process).
+Snakemake's benchmark files (the intervals and the proposals from ``plant_scale_b39d8ea.md``), with a margin for
+what those files' sampling misses (the intervals measured 2.86 GB there and 3.06 GB in their own process).
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ MEASURED = {
     "matched_check": (286, 1582),
     "model_extension": (277, 2400),
     "production_predictions": (200, 771),
-    "prediction_intervals": (429, 2929),  # from plant_scale_d60d04d.md
-    "propose_simulations": (759, 2393),
+    "prediction_intervals": (429, 2857),  # from plant_scale_b39d8ea.md
+    "propose_simulations": (759, 1895),  # from plant_scale_b39d8ea.md
     "peer_cokriging": (1138, 2057),
     "peer_gp_discrepancy": (431, 1373),
     "diagnose": (357, 1343),
