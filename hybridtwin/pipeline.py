@@ -273,6 +273,29 @@ def calibrate(predictions, production, doe, spec: Spec, threshold: float, settin
     return coverage.calibrate(predictions, inputs, doe_range, threshold, settings, spec.seed, truth, units)
 
 
+def _log_columns(path, spec: Spec, causes) -> tuple[list[str], list[str]]:
+    """The production log's columns the intervals step reads (:func:`monitor.calibration.log_columns`), and of
+    those the ones the answers read (the inputs and the extension's causes), in the file's order."""
+    from hybridtwin.diagnosis.causes import LOOK_ROWS
+    from hybridtwin.io.files import read_head
+    from hybridtwin.monitor.calibration import log_columns
+
+    read = log_columns(read_head(path, LOOK_ROWS), spec.target, [*spec.inputs, *causes])
+    return read, [name for name in read if name in {*spec.inputs, *causes}]
+
+
+def answers_log(path, spec: Spec, causes) -> pd.DataFrame:
+    """The production log's columns the answers read: on a long log the ids and counters, which only the
+    monitor's calibration reads, come later (:func:`monitor_log`)."""
+    return read_checked(path, _log_columns(path, spec, causes)[1])
+
+
+def monitor_log(path, spec: Spec, causes, log: pd.DataFrame) -> pd.DataFrame:
+    """:func:`answers_log`'s ``log`` with the columns only the monitor's calibration reads, in the file's order."""
+    read, answered = _log_columns(path, spec, causes)
+    return side_by_side([log, read_checked(path, [name for name in read if name not in answered])])[read]
+
+
 @dataclass
 class Answers:
     calibrated: object  # coverage.Calibration: regions, intervals, the recommended model per region

@@ -8,7 +8,6 @@ from hybridtwin import pipeline
 from hybridtwin.answers import coverage
 from hybridtwin.answers.intervals import answer_columns
 from hybridtwin.answers.predictor import Predictor
-from hybridtwin.diagnosis.causes import LOOK_ROWS
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import files
 from hybridtwin.io.files import read_checked
@@ -28,10 +27,7 @@ def main(snakemake):
     )
     causes = Models.from_stored(files.read_json(snakemake.input.extension), None).extension.columns
     doe, matched = read_checked(found.doe), read_checked(found.matched)
-    # on a long log, only the columns the answers read; those only the monitor reads (ids, counters) at its turn
-    read = monitor.log_columns(files.read_head(found.production, LOOK_ROWS), spec.target, [*spec.inputs, *causes])
-    answered = [name for name in read if name in {*spec.inputs, *causes}]
-    log, production = read_checked(found.production, answered), found.production
+    log, production = pipeline.answers_log(found.production, spec, causes), found.production
     gate = KNNSupportGate.from_dict(files.read_json(snakemake.input.gate))
     truth, noise = demo_truth(snakemake.input)
     settings = {**p.settings, "unit": p.unit, "csv": p.csv}
@@ -64,7 +60,7 @@ def main(snakemake):
     # calibration go first (1 GB on ten million parts)
     record, manifest = monitor.record(predictions["measured"], found.calibrated, level), found.manifest
     del predictions, found
-    log = files.side_by_side([log, read_checked(production, [name for name in read if name not in answered])])[read]
+    log = pipeline.monitor_log(production, spec, causes, log)
     manifest["monitor"] = monitor.calibrate(record, log, spec.inputs, spec.seed, causes)
     files.write_json(manifest, snakemake.output.manifest)
     # here, not in a step of its own: a process start (2 s) for half a second of sweeps

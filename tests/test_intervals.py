@@ -681,3 +681,30 @@ def test_the_production_reach_standardizes_only_the_parts_it_keeps_with_the_same
     whole = ProductionNeighbourhood(n_blocks=10, seed=7).fit(gate.standardizer_.transform(log))
     assert len(reach.parts_) == 2000 < len(log)
     assert np.array_equal(reach.parts_, whole.parts_) and reach.threshold_ == whole.threshold_
+
+
+def test_the_intervals_step_reads_the_answers_columns_then_the_monitors_in_the_files_order(tmp_path):
+    from hybridtwin import pipeline
+
+    stamps = pd.date_range("2026-01-01", periods=300, freq="min").strftime("%Y-%m-%d %H:%M:%S")
+    log = pd.DataFrame(
+        {
+            "timestamp": stamps,
+            "coil": np.repeat(["c1", "c2", "c3"], 100),
+            "a": np.arange(300.0),
+            "stroke": np.arange(300),
+            "b": np.linspace(0, 1, 300),
+            "y": 1.0,
+        }
+    )
+    path = tmp_path / "production.parquet"
+    log.to_parquet(path)
+    spec = pipeline.Spec(inputs=("a",), target="y")
+    answered = pipeline.answers_log(path, spec, ["b"])
+    assert list(answered.columns) == ["a", "b"]
+    monitored = pipeline.monitor_log(path, spec, ["b"], answered)
+    # every column but the target and the timestamps, in the file's order, as read whole
+    pd.testing.assert_frame_equal(monitored, files.read_checked(path, ["coil", "a", "stroke", "b"]))
+    bare = tmp_path / "bare.parquet"
+    log[["a", "b", "y"]].to_parquet(bare)
+    assert list(pipeline.monitor_log(bare, spec, ["b"], pipeline.answers_log(bare, spec, ["b"])).columns) == ["a", "b"]
