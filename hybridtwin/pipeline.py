@@ -293,7 +293,8 @@ def answers_log(path, spec: Spec, causes) -> pd.DataFrame:
 def monitor_log(path, spec: Spec, causes, log: pd.DataFrame) -> pd.DataFrame:
     """:func:`answers_log`'s ``log`` with the columns only the monitor's calibration reads, in the file's order."""
     read, answered = _log_columns(path, spec, causes)
-    return side_by_side([log, read_checked(path, [name for name in read if name not in answered])])[read]
+    rest = [name for name in read if name not in answered]
+    return side_by_side([log, read_checked(path, rest)])[read] if rest else log[read]
 
 
 @dataclass

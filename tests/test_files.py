@@ -281,3 +281,12 @@ def test_a_cluster_job_on_another_machine_is_not_taken_for_an_orphan(tmp_path, m
     monkeypatch.setenv(files.OWNER_ENVIRONMENT + "_HOST", "another-node")
     files.write_json({"params": 1}, tmp_path / "best.json")
     assert (tmp_path / "best.json").exists()
+
+
+def test_a_table_without_rows_is_written_with_its_header(tmp_path):
+    from hybridtwin.io import files
+
+    empty = pd.DataFrame({"x": pd.Series([], dtype=float), "text": pd.Series([], dtype=str)})
+    files.write_csv(empty, tmp_path / "empty.csv")
+    assert (tmp_path / "empty.csv").read_text() == "x,text\n"
+    assert files.row_slices(0) == [] and files.row_slices(0, at_least_one=True) == [slice(0, files.ROWS_AT_ONCE)]

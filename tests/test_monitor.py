@@ -285,22 +285,23 @@ def test_a_few_long_coils_are_still_ids():
 def test_expected_error_is_the_root_mean_square_of_the_regions_calibration(predictor):
     model, errors = next((m, r) for m, per in predictor.intervals.calibration.items() for r in per.items())
     region, values = errors
-    got = chart.expected_error(predictor.intervals, [model, "no_model", None, model], [region, region, region, None])
-    assert got[0] == pytest.approx(np.sqrt(np.mean(np.square(values)))) and np.isnan(got[1:]).all()
+    # the model found last has a calibration: a missing one (code -1) must not wrap round to it
+    got = chart.expected_error(predictor.intervals, ["no_model", model, None, model], [region, region, region, None])
+    assert got[1] == pytest.approx(np.sqrt(np.mean(np.square(values)))) and np.isnan(got[[0, 2, 3]]).all()
 
 
 def test_the_logs_record_is_its_residual_in_the_errors_its_region_expects():
-    picked = pd.DataFrame({"pred_recommended": [1.0] * 5, "recommended_model": ["m"] * 5})
+    picked = pd.DataFrame({"pred_recommended": [1.0] * 6, "recommended_model": ["m"] * 6})
     calibrated = SimpleNamespace(
         intervals=SimpleNamespace(calibration={"m": {"in": [2.0, -2.0], "none": [], "exact": [0.0]}}),
-        region=SimpleNamespace(interval=np.array(["in", "in", "none", "in", "exact"], object)),
+        region=SimpleNamespace(interval=np.array(["in", "in", "none", "in", "exact", "in"], object)),
         recommended=lambda level: picked,
     )
-    found = calibration.record([5.0, np.nan, 3.0, -1.0, 2.0], calibrated, 0.9)
-    np.testing.assert_array_equal(found.residual, [4.0, np.nan, 2.0, -2.0, 1.0])
-    # not judged: no measure, no calibration, a calibration without error
-    np.testing.assert_array_equal(found.z, [2.0, np.nan, np.nan, -1.0, np.nan])
-    assert list(found.models) == ["m"] * 5 and list(found.region) == ["in", "in", "none", "in", "exact"]
+    found = calibration.record([5.0, np.nan, 3.0, -1.0, 2.0, np.inf], calibrated, 0.9)
+    np.testing.assert_array_equal(found.residual, [4.0, np.nan, 2.0, -2.0, 1.0, np.inf])
+    # not judged: no measure, no calibration, a calibration without error, a measure beyond every number
+    np.testing.assert_array_equal(found.z, [2.0, np.nan, np.nan, -1.0, np.nan, np.nan])
+    assert list(found.models) == ["m"] * 6 and list(found.region) == ["in", "in", "none", "in", "exact", "in"]
 
 
 def test_the_logs_own_parts_are_in_control(predictor, parts):

@@ -242,6 +242,6 @@ def calibrate(found: Record, log, inputs, seed: int = 0, causes=()) -> dict:
         "slopes": slopes(log, causes, residual, z, group, starts),
         "counters": counters(log),
         "limit": chart.LIMIT,
-        "log_parts": int(np.isfinite(z).sum()),
+        "log_parts": int(np.count_nonzero(~np.isnan(z))),  # judged: a z of its own, however large
         "log_rows": len(log),
     }
