@@ -191,7 +191,9 @@ def replay(keep: Path) -> pd.DataFrame:
     rows = []
     for folder in sorted(keep.glob("p*")):
         meta = json.loads((folder / "meta.json").read_text())
-        predictor = Predictor.load(folder / "results" / "models")
+        # the run beside the batches (folders kept before 2026-11-29 hold it under run/)
+        models = next(path for path in (folder / "results", folder / "run" / "results") if path.is_dir()) / "models"
+        predictor = Predictor.load(models)
         scale = pooled_scale(predictor)
         for batch in meta["batches"]:
             altered = pd.read_parquet(folder / batch["file"])

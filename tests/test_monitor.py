@@ -584,6 +584,19 @@ def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousa
     assert (kind, column) == (UNEXPLAINED, None)
 
 
+def test_a_new_suppliers_ids_are_named_before_a_setting_that_steps_where_they_begin(predictor):
+    from hybridtwin.monitor.changes import _named
+
+    rng = np.random.default_rng(8)
+    ids = [f"K{1000 + i // 250}" for i in range(1000)] + [f"NEW-K{2000 + i // 250}" for i in range(3000)]
+    shim = np.r_[np.full(1000, 0.45), np.full(3000, 0.55)] + rng.normal(0, 0.004, 4000)
+    frame = pd.DataFrame({"shim": shim, "coil": ids})  # the coils' material steps with the supplier, as here the shim
+    kind, column, text = _named([], frame, 1000, predictor, 3.0, "mm")
+    assert (kind, column) == (NEW, "coil") and "new form (NEW-K2000)" in text
+    same = frame.assign(coil=[f"K{1000 + i // 250}" for i in range(4000)])  # the same supplier: the setting
+    assert _named([], same, 1000, predictor, 3.0, "mm")[:2] == (NEW, "shim")
+
+
 def test_a_shift_over_the_levels_is_dated_at_its_likeliest_start_not_at_the_charts_last_zero():
     # regimes' levels that drifted up by chance (in control), then a shift of 3.5 level SDs from the sixth on
     steps = np.array([1.5, 1.2, 1.4, 0.2, 1.3, 3.5, 3.4, 3.6, 3.5, 3.3, 3.5])

@@ -286,6 +286,11 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
     steps = _dated_steps(frame, start, gap, timing, regime is not None, shifted, shift)
+    supplier = _new_form_column(frame, start, timing)
+    if supplier is not None:  # ids of a form never seen, from where it began: a new supplier, before any setting
+        column, at = supplier
+        text = f"a change with {column}: since part {at + 1:,} its values take a new form ({frame[column].iloc[at]})"
+        return NEW, column, text + f"; the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
     if physical:
         fit = physical[0]
         name = fit.candidate.name
@@ -297,13 +302,6 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
         return NEW, name, _step_text(name, steps[name])
-    for column in frame.columns:  # coil ids (lots) of a form never seen before: a new supplier
-        at = new_form(frame[column], start) if column not in timing else None
-        if at is not None:
-            text = (
-                f"a change with {column}: since part {at + 1:,} its values take a new form ({frame[column].iloc[at]})"
-            )
-            return NEW, column, text + f"; the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
     for column in frame.columns if gap < BOUNDARY and regime is None else []:  # a new coil began where it started
         at = boundary_of(frame[column], start) if column not in timing else None
         if at is not None:
@@ -312,6 +310,16 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     during = f" (it began during the {gap:,} parts before, which were not judged)" if gap >= BOUNDARY else ""
     text = f"a shift of {shift:+.1f} {unit} from part {start + 1:,}{during} with no logged column"
     return UNEXPLAINED, None, text + " that explains it"
+
+
+def _new_form_column(frame: pd.DataFrame, start: int, timing: set) -> tuple[str, int] | None:
+    """The first column (not a clock) whose values take a form never seen before where the change began
+    (:func:`new_form`: a new supplier's coil ids), and the part from which they do; None if none does."""
+    for column in frame.columns:
+        at = new_form(frame[column], start) if column not in timing else None
+        if at is not None:
+            return str(column), at
+    return None
 
 
 def _slope_changed(found: list, frame: pd.DataFrame, start: int, timing: set, regime) -> list:
