@@ -593,6 +593,8 @@ def test_a_new_suppliers_ids_are_named_before_a_setting_that_steps_where_they_be
     frame = pd.DataFrame({"shim": shim, "coil": ids})  # the coils' material steps with the supplier, as here the shim
     kind, column, text = _named([], frame, 1000, predictor, 3.0, "mm")
     assert (kind, column) == (NEW, "coil") and "new form (NEW-K2000)" in text
+    # and before a known cause whose slope moved with them (their material changes how it acts)
+    assert _named([], frame, 1000, predictor, 3.0, "mm", known_moved=("shim", 4.0))[:2] == (NEW, "coil")
     same = frame.assign(coil=[f"K{1000 + i // 250}" for i in range(4000)])  # the same supplier: the setting
     assert _named([], same, 1000, predictor, 3.0, "mm")[:2] == (NEW, "shim")
 

@@ -269,11 +269,16 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     or a setting of the campaigns "explains" before the start as well as after it: a cause the diagnosis found
     must then follow the residual by another slope since the start than before it (a coil id cannot), and a coil
     that begins near the start is no cause (the charts begin a regime there and see no change at it)."""
+    timing = clocks(frame) - set(predictor.inputs)  # a setting stepped up once never goes down, yet is no clock
+    supplier = _new_form_column(frame, start, timing)
+    if supplier is not None:  # ids of a form never seen, from where it began: a new supplier, before any other cause
+        column, at = supplier
+        text = f"a change with {column}: since part {at + 1:,} its values take a new form ({frame[column].iloc[at]})"
+        return NEW, column, text + f"; the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
     if known_moved is not None:
         name, change = known_moved
         return KNOWN, name, f"the {name} effect changed by {change:+.1f} {unit} over its range since part {start + 1:,}"
     known = predictor.extension.extension.columns
-    timing = clocks(frame) - set(predictor.inputs)  # a setting stepped up once never goes down, yet is no clock
     if regime is not None:
         found = _slope_changed(found, frame, start, timing, regime)
     physical = [fit for fit in found if fit.candidate.kind != "time" and not set(fit.candidate.columns) & timing]
@@ -286,11 +291,6 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     # unlike every logged part is not judged); with the regime charts a campaign's settings and a coil's
     # properties change at every regime, in control: the new level must last KEPT parts
     steps = _dated_steps(frame, start, gap, timing, regime is not None, shifted, shift)
-    supplier = _new_form_column(frame, start, timing)
-    if supplier is not None:  # ids of a form never seen, from where it began: a new supplier, before any setting
-        column, at = supplier
-        text = f"a change with {column}: since part {at + 1:,} its values take a new form ({frame[column].iloc[at]})"
-        return NEW, column, text + f"; the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
     if physical:
         fit = physical[0]
         name = fit.candidate.name
