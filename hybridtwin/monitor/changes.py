@@ -264,7 +264,8 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
     residual less its level before the start, the judged parts), to drop a setting that stepped where the change
     began but whose new level the shift does not follow (:func:`shift_without_setting`).
 
-    With the regime charts, ``known_moved``: a known cause whose slope changed (:func:`moved_cause`); ``regime``:
+    With the regime charts, ``known_moved``: a known cause whose slope changed (:func:`moved_cause`; a new
+    supplier's ids, :func:`new_form`, go before it and before every other cause); ``regime``:
     (residual, judged, group, scale). The settled levels of the regimes are the models' own error, which a coil id
     or a setting of the campaigns "explains" before the start as well as after it: a cause the diagnosis found
     must then follow the residual by another slope since the start than before it (a coil id cannot), and a coil
