@@ -27,10 +27,11 @@ ROWS_AT_ONCE = 1_000_000
 ROWS_PER_TEXT = 250_000
 
 
-def row_slices(rows: int, at_least_one: bool = False) -> list[slice]:
-    """The pieces of :data:`ROWS_AT_ONCE` rows of a table of ``rows`` rows, in order (one empty piece for an empty
-    table if ``at_least_one``)."""
-    return [slice(start, start + ROWS_AT_ONCE) for start in range(0, max(rows, int(at_least_one)), ROWS_AT_ONCE)]
+def row_slices(rows: int, at_least_one: bool = False, size: int | None = None) -> list[slice]:
+    """The pieces of ``size`` (default :data:`ROWS_AT_ONCE`) rows of a table of ``rows`` rows, in order (one empty
+    piece for an empty table if ``at_least_one``)."""
+    size = ROWS_AT_ONCE if size is None else size
+    return [slice(start, start + size) for start in range(0, max(rows, int(at_least_one)), size)]
 
 
 # the process of the workflow run that started this job (set by the Snakefile for its jobs): a job whose
@@ -277,8 +278,8 @@ def _written_by_arrow(chunks, digits: int | None, sep: str, path) -> bool:
 def _pieces(chunks):
     """Each table of ``chunks`` in pieces of at most ROWS_PER_TEXT rows (an empty one as it is)."""
     for chunk in chunks:
-        for start in range(0, max(len(chunk), 1), ROWS_PER_TEXT):
-            yield chunk.iloc[start : start + ROWS_PER_TEXT]
+        for rows in row_slices(len(chunk), at_least_one=True, size=ROWS_PER_TEXT):
+            yield chunk.iloc[rows]
 
 
 def _write_text_rows(columns: dict, quoted: bool, handle, sep: str) -> None:
