@@ -26,7 +26,7 @@ def main(snakemake):
         residuals,
         read_checked(snakemake.input.hybrid, pipeline.HYBRID_FOR_EXTENSION),
     )
-    # the very split of the hybrid's out-of-fold predictions (rule residual_cv writes each row's fold)
+    # the very split of the hybrid's out-of-fold predictions (rule residual_model writes each row's fold)
     splits = written_splits(read_checked(snakemake.input.hybrid_folds), np.flatnonzero(parts.inside))
     # the blocks that calibrate the intervals choose whether the extended hybrid stands out of the support
     choosing = calibration_rows(len(residuals), p.blocks)

@@ -34,7 +34,7 @@ def test_folds_partition_rows():
 
 
 def test_written_fold_ids_give_back_the_very_split():
-    # rule residual_cv writes each row's fold; rule model_extension scores the extension on the split they give
+    # rule residual_model writes each row's fold; rule model_extension scores the extension on the split they give
     split = folds(23, 5, seed=7)
     ids = fold_ids(23, 5, seed=7)
     assert sorted(set(ids)) == [1, 2, 3, 4, 5]

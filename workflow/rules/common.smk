@@ -60,7 +60,7 @@ def model_file(part):
 
 
 def oof_file(training):
-    """The residual model's out-of-fold predictions and folds (rule residual_cv) for a training set, or for
+    """The residual model's out-of-fold predictions and folds (rule residual_model) for a training set, or for
     the wildcard ``{training}``."""
     return f"{RESULTS}/residuals/oof_{training}.parquet"
 
@@ -105,6 +105,8 @@ def validation_settings(wildcards):
 # each step's memory grows with the production log (hybridtwin.io.resources): Snakemake's mem_mb, which the SLURM
 # executor asks for per job and `--resources mem_mb=N` keeps within N MB on one machine
 PRODUCTION_GB = production_gb(config["data"]["production"], config["demo"]["n_production"])
+# a log this long (GB of CSV, about 700,000 parts) makes the extension's XGBoost work the run's critical path
+LONG_LOG_GB = 0.1
 
 
 def memory(step):

@@ -61,9 +61,10 @@ rule model_extension:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    # both cores: on the critical path, alone in the runs measured (demo and ten million parts); its XGBoost fits
-    # and predictions, most of its time on a long log, give the same tables on one thread or two
-    threads: 2
+    # on a long log both cores: its XGBoost fits and predictions are then the critical path, with nothing beside
+    # it; on a short one a core, so that it runs beside the peers (with two it waited for both cores to be free,
+    # one idle for 4 s of a demo run); the tables are the same on one thread or two
+    threads: 2 if PRODUCTION_GB > LONG_LOG_GB else 1
     resources:
         mem_mb=memory("model_extension"),
     params:
