@@ -24,8 +24,8 @@ MEASURED = {
     "residuals": (280, 1477),
     "tune_residual": (291, 1485),
     "tune_worker": (291, 1485),  # not measured apart: a worker runs the study tune_residual runs with one worker
-    "residual_model_filtered": (249, 942),
-    "residual_model_unfiltered": (276, 2260),
+    "residual_model_filtered": (249, 923),  # workflow_timing_259531c.md, plant_scale_259531c.md
+    "residual_model_unfiltered": (295, 2317),  # workflow_timing_259531c.md, plant_scale_259531c.md
     "predict_production": (304, 2131),
     "matched_check": (286, 1582),
     "model_extension": (277, 2400),
