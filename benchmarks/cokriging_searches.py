@@ -6,6 +6,7 @@ in-support parts of the workflow's gate (the in-memory steps), once per setting:
 - ``one search``: one likelihood search of 10 starts on one seeded draw of ``n_high`` parts (the setting before);
 - ``3 searches``: three searches of 2 starts, each on its own draw; the hyperparameters whose model predicts
   unseen periods of the ``n_fit`` parts best are kept (the default now);
+- ``3 searches, SMT's starts``: the same with SMT's own two starts only (no Latin hypercube starts beyond them);
 - ``3 searches, 500 parts`` and ``3 searches, 600 parts``: the same, fitted on the parts searched on (the plain
   MFK's 600 parts, the same seeded draw, in the second);
 - ``3 searches, theta >= 1e-3`` and ``... 1e-2``: the default with the length-scale parameters' lower bound raised
@@ -46,6 +47,8 @@ OUT = Path(__file__).resolve().parent / "results"
 SETTINGS = {
     "one search": {"n_searches": 1, "n_start": 10, "n_high": 500, "n_fit": 1000},
     "3 searches": {"n_searches": 3, "n_start": 2, "n_high": 500, "n_fit": 1000},
+    # SMT's own two starts only (its given and its random one; n_start 1 adds no Latin hypercube starts)
+    "3 searches, SMT's starts": {"n_searches": 3, "n_start": 1, "n_high": 500, "n_fit": 1000},
     # fitted on the parts searched on: no refit on more parts with the hyperparameters held
     "3 searches, 500 parts": {"n_searches": 3, "n_start": 2, "n_high": 500, "n_fit": 500},
     # the plain MFK's own 600 parts (the same seeded draw)
