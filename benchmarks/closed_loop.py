@@ -24,6 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import machine_speed
 import numpy as np
 import pandas as pd
 import yaml
@@ -169,6 +170,7 @@ def main() -> None:
     workdir = Path(args.workdir)
     config = yaml.safe_load(Path(args.config).read_text())
     require_up_to_date(workdir, Path(args.config))
+    print(machine_speed.line(), flush=True)
     inputs, target = list(config["columns"]["inputs"]), config["columns"]["target"]
     gate = config.get("gate", {})
     k, percentile = int(gate.get("k", 5)), float(gate.get("percentile", 95))

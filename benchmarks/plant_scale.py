@@ -23,6 +23,7 @@ import psutil
 import yaml
 
 sys.path.insert(0, str(Path(__file__).parent))
+import machine_speed  # noqa: E402
 from workflow_timing import rule_times  # noqa: E402
 
 
@@ -62,6 +63,7 @@ def main() -> None:
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--mem-mb", type=int, help="a memory budget for the steps side by side (--resources mem_mb)")
     args = parser.parse_args()
+    print(machine_speed.line(), flush=True)
     results = f"runs/scale_{args.rows}"
     config = yaml.safe_load(Path("config/config.yaml").read_text())
     config["results_dir"] = results

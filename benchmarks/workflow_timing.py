@@ -21,6 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import machine_speed
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,10 +109,11 @@ def main() -> None:
             results = Path(args.keep or Path(scratch, "results")).resolve()
             if results.exists():
                 sys.exit(f"{results} exists: --run starts from an empty results folder")
+            speed = machine_speed.line()
             start = time.perf_counter()
             snakemake("--cores", str(CORES), *run_config(results))
             wall = time.perf_counter() - start
-        text = report(results, wall)
+        text = report(results, wall) + (f"\n- {speed}" if args.run else "")
     print(text)
     if args.out:
         command = "python benchmarks/workflow_timing.py" + (" --run" if args.run else f" {args.results}")
