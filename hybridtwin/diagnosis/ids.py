@@ -129,11 +129,22 @@ def unaccounted(
     """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
     levels of ``group``: what the id's offsets hold beyond them. ``design``: the id's, if made already."""
     design = design or LevelDesign.of(group, y, inputs, rules)
-    explained = np.zeros(len(y))
-    for train, test in design.splits:
-        explained[test] = _predict_held_out(train, test, y, design.matrix, smooth, design.penalty)
-    left = y - explained
-    return left - left.mean()
+
+    def left_by(matrix) -> np.ndarray:
+        explained = np.zeros(len(y))
+        for train, test in design.splits:
+            explained[test] = _predict_held_out(train, test, y, matrix, smooth, design.penalty)
+        left = y - explained
+        return left - left.mean()
+
+    with_surface = left_by(design.matrix)
+    if design.matrix is None or not smooth:
+        return with_surface
+    # the penalty was chosen without the smooth candidates: beside a trend in time, a surface of per-lot material
+    # recalls the lots' share of the trend in fitting and predicts other lots worse than the trend alone
+    alone = left_by(None)
+    labels = group.values
+    return alone if between_level_ss(labels, alone) < between_level_ss(labels, with_surface) else with_surface
 
 
 def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules, of_inputs=None):
