@@ -424,7 +424,7 @@ def test_the_input_surface_is_shrunk_by_its_error_on_held_out_coils_not_on_rows(
     rules = fitting.Rules(SETTINGS, n_tests=10, min_effect=0.3)
     oil_fit = rules.best_fit(Candidate.new("oil_film", "log", oil, ("oil_film",)), y)
     stands, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [*inputs, group], {"oil_film": oil_fit}, rules)
-    assert names == (ids.INPUT_SURFACE, "oil_film")
+    assert names == ("oil_film",)  # the surface, shrunk, predicts nothing the oil film does not: left out
     assert not stands and share > 0.9
     splits = ids.level_folds(group.values, SETTINGS.folds, SETTINGS.seed)
     assert ids.level_penalty(material, y, splits) >= 1e4  # the surface shrunk: the inputs hold nothing here
@@ -452,7 +452,7 @@ def test_a_season_accounts_for_the_lots_offsets_though_a_material_drifted_with_i
     left = ids.unaccounted(group, y, inputs, [season], rules)
     assert ids.accounted_share(group.values, y, left) > 0.95  # 0.28 with the surface held beside the season
     stands, names, share, _ = ids.id_stands(rules.best_fit(group, y), y, [*inputs, group], {"timestamp": season}, rules)
-    assert not stands and names == (ids.INPUT_SURFACE, "timestamp") and share > 0.95
+    assert not stands and names == ("timestamp",) and share > 0.95  # the surface left out, and not named
 
 
 def test_the_input_surface_is_a_quadratic_of_the_standardized_inputs_whatever_their_units():

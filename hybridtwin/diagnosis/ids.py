@@ -9,7 +9,8 @@ The surrogate's error is a smooth function of the model inputs; so is any discre
 alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitted on the other levels and so
 unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
 significant on their own, uncorrected and below the margin too, the inputs' steps and bends among them). The id is
-named only where its offsets, with both held out by level, still pass every rule of a cause, and spread more than
+named only where its offsets, with both held out by level (the candidates alone where the surface beside them
+predicts the other levels worse: :func:`unaccounted`), still pass every rule of a cause, and spread more than
 the surrogate's error gives between as many levels (:func:`surrogate_spread`). A GPR posterior's
 draws were the first candidate for this null; on the structures generator's plants the surrogate's real variance
 between coils was 3.2 times the draws' (median; above their 95% quantile on 6 of 10 plants:
@@ -127,30 +128,44 @@ def unaccounted(
     group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules, design: LevelDesign | None = None
 ) -> np.ndarray:
     """``y`` less what the input surface and the smooth candidates predict of it, both fitted on the other
-    levels of ``group``: what the id's offsets hold beyond them. ``design``: the id's, if made already."""
+    levels of ``group`` (:func:`held_out_remainder`): what the id's offsets hold beyond them. ``design``: the id's,
+    if made already."""
+    return held_out_remainder(group, y, inputs, smooth, rules, design)[0]
+
+
+def held_out_remainder(
+    group: Candidate, y, inputs: list[Candidate], smooth: list[Fit], rules: Rules, design: LevelDesign | None = None
+) -> tuple[np.ndarray, bool]:
+    """``y`` less what the input surface and the smooth candidates predict of it, fitted on the other levels of
+    ``group``, centred; or less what the candidates alone predict, where that leaves less of the differences
+    between the levels; and whether the surface was kept. The surface's penalty is chosen without the candidates
+    (:func:`level_penalty`): beside a trend in time, a surface of per-lot material that drifted with it recalls
+    the lots' share of the trend in fitting and predicts other lots worse than the trend alone. Of the two, the
+    smaller remainder is kept, so the choice leans towards an id that does not stand."""
     design = design or LevelDesign.of(group, y, inputs, rules)
 
-    def left_by(matrix) -> np.ndarray:
+    def left_by(surface_inputs) -> np.ndarray:
         explained = np.zeros(len(y))
         for train, test in design.splits:
-            explained[test] = _predict_held_out(train, test, y, matrix, smooth, design.penalty)
+            explained[test] = _predict_held_out(train, test, y, surface_inputs, smooth, design.penalty)
         left = y - explained
         return left - left.mean()
 
     with_surface = left_by(design.matrix)
     if design.matrix is None or not smooth:
-        return with_surface
-    # the penalty was chosen without the smooth candidates: beside a trend in time, a surface of per-lot material
-    # recalls the lots' share of the trend in fitting and predicts other lots worse than the trend alone
-    alone = left_by(None)
-    labels = group.values
-    return alone if between_level_ss(labels, alone) < between_level_ss(labels, with_surface) else with_surface
+        return with_surface, design.matrix is not None
+    smooth_alone = left_by(None)
+    labels = np.asarray(group.values).astype(str)
+    if between_level_ss(labels, smooth_alone) < between_level_ss(labels, with_surface):
+        return smooth_alone, False
+    return with_surface, True
 
 
 def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, Fit], rules: Rules, of_inputs=None):
     """Whether an id's offsets pass the rules of a cause once the input surface and the smooth candidates are out
-    (held out by level), and spread more than the surrogate's own error gives between as many levels
-    (:func:`surrogate_spread`); with the names of what accounts for them and the share of its level differences.
+    (held out by level; the candidates alone where they leave less: :func:`held_out_remainder`), and spread more
+    than the surrogate's own error gives between as many levels (:func:`surrogate_spread`); with the names of what
+    accounts for them (the surface only where it was kept) and the share of its level differences.
 
     An id that stands is named after a smooth cause only where the input surface and the logged quantities and
     time significant after the correction account for its offsets (the share returned is theirs): candidates
@@ -161,7 +176,7 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
     inputs = [c for c in candidates if c.kind == "input"]
     smooth = smooth_accounts(list(conditional.values()), rules)
     design = LevelDesign.of(fit.candidate, y, inputs, rules)
-    left = unaccounted(fit.candidate, y, inputs, smooth, rules, design)
+    left, surface = held_out_remainder(fit.candidate, y, inputs, smooth, rules, design)
     remainder = rules.best_fit(fit.candidate, left)
     labels = np.asarray(fit.candidate.values).astype(str)
     per_level = max((level_share(labels, c.values) for c in inputs), default=0.0)
@@ -173,9 +188,10 @@ def id_stands(fit: Fit, y, candidates: list[Candidate], conditional: dict[str, F
         return Proxy(False, (SMOOTH_INPUTS,), None, own_p)
     if stands:  # what orders the causes: the surface and the corrected candidates
         causes = smooth_accounts(list(conditional.values()), rules, corrected=True)
-        if _names(inputs, causes) != _names(inputs, smooth):
-            smooth, left = causes, unaccounted(fit.candidate, y, inputs, causes, rules, design)
-    return Proxy(stands, _names(inputs, smooth), accounted_share(fit.candidate.values, y, left), own_p)
+        if [f.candidate.name for f in causes] != [f.candidate.name for f in smooth]:
+            smooth = causes
+            left, surface = held_out_remainder(fit.candidate, y, inputs, causes, rules, design)
+    return Proxy(stands, _names(inputs if surface else [], smooth), accounted_share(labels, y, left), own_p)
 
 
 class Proxy(NamedTuple):
