@@ -10,7 +10,7 @@ alone. Whatever a smooth surface of the inputs predicts of an id's offsets, fitt
 unable to recall a level's own offset, is not the id's. Nor is what the smooth candidates explain (those
 significant on their own, uncorrected and below the margin too, the inputs' steps and bends among them). The id is
 named only where its offsets, with both held out by level (the candidates alone where the surface beside them
-predicts the other levels worse: :func:`unaccounted`), still pass every rule of a cause, and spread more than
+predicts the other levels worse: :func:`held_out_remainder`), still pass every rule of a cause, and spread more than
 the surrogate's error gives between as many levels (:func:`surrogate_spread`). A GPR posterior's
 draws were the first candidate for this null; on the structures generator's plants the surrogate's real variance
 between coils was 3.2 times the draws' (median; above their 95% quantile on 6 of 10 plants:
