@@ -27,7 +27,7 @@ MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
 MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
 # a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
 SHARE_MARGIN = 0.02
-BOUNDARY = 10  # parts from the start a new coil must begin at to be named with the change
+BOUNDARY = 10  # parts from the start a new coil or a setting's step must begin at to be named with the change
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts either side of the start a setting's step is looked for in
 KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
@@ -73,10 +73,23 @@ def clocks(frame: pd.DataFrame) -> set[str]:
 
 
 def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | None = None):
-    """A step of a numeric column to a level it never had in the ``window`` parts before ``start`` and keeps for
-    the ``kept`` parts after it (default ``window``; fewer if the batch ends): (the index it steps at, the level
-    before, the level after), or None."""
-    before, after = values[max(0, start - window) : start], values[start : start + (kept or window)]
+    """A step of a numeric column near ``start`` (within BOUNDARY parts: the chart dates a change a few parts late
+    or early) to a level it never had in the ``window`` parts before the step and keeps for the ``kept`` parts after
+    it (default ``window``; fewer if the batch ends): (the index it steps at, the level before, the level after),
+    or None."""
+    first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
+    around = values[first : start + LOCAL]
+    if len(around) < MIN_BEFORE or not np.isfinite(around).all():
+        return None
+    split, misfit = two_levels(around)
+    # the step is dated where two levels fit best within BOUNDARY parts of the start (a campaign that changed a
+    # few dozen parts before is no step at the change); the levels are compared either side of it, not of the
+    # start: parts of the new level before a start dated late would make it a level the setting had before
+    near = np.abs(first + split - start) <= BOUNDARY
+    if not near.any():
+        return None
+    at = first + int(split[near][np.argmin(misfit[near])])
+    before, after = values[max(0, at - window) : at], values[at : at + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
     if not (np.isfinite(before).all() and np.isfinite(after).all()):  # a setting not logged on every part
@@ -84,10 +97,7 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     low, high = np.quantile(before, [0.005, 0.995])
     if np.mean((after < low) | (after > high)) < 0.9:
         return None
-    first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
-    around = values[first : start + LOCAL]
     n = len(around)
-    split, misfit = two_levels(around)
     # a step, not a trend (a die warming up): a straight line leaves a misfit beyond the setting's own scatter from
     # part to part (at least as large again), and two levels take far the most of it (one side of a step may
     # scatter more than the other)
@@ -95,7 +105,6 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     scatter = n * np.sum(np.diff(around) ** 2) / (2 * (n - 1))
     if line < 2 * scatter or np.min(misfit) - scatter > 0.25 * (line - scatter):
         return None
-    at = first + int(split[np.argmin(misfit)])
     return at, float(np.median(before)), float(np.median(after))
 
 
@@ -296,13 +305,13 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
         fit = physical[0]
         name = fit.candidate.name
         if name in steps:
-            return NEW, name, _step_text(name, steps[name])
+            return _stepped(name, steps[name], known, shift, unit)
         if fit.candidate.kind == "group":
             return NEW, name, f"a change with {name}: the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
         return NEW, name, f"a new effect of {name}, {fit.effect_range:.1f} {unit} over its range in the batch"
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
-        return NEW, name, _step_text(name, steps[name])
+        return _stepped(name, steps[name], known, shift, unit)
     for column in frame.columns if gap < BOUNDARY and regime is None else []:  # a new coil began where it started
         at = boundary_of(frame[column], start) if column not in timing else None
         if at is not None:
@@ -341,10 +350,15 @@ def _slope_changed(found: list, frame: pd.DataFrame, start: int, timing: set, re
 
 def _dated_steps(frame, start: int, gap: int, timing: set, charts: bool, shifted, shift: float) -> dict:
     """The settings that step where the change began (:func:`_steps`; with the regime ``charts``, to a level they
-    keep KEPT parts), less those whose new level the shift does not follow (:func:`shift_without_setting`)."""
+    keep KEPT parts), less those whose new level the shift does not follow (:func:`shift_without_setting`). After
+    a longer stretch not judged (a setting stepped beyond every logged part: its parts cannot be judged until the
+    batch comes back near the log), the change is dated inside it where the residual itself steps (it is there
+    on parts not judged too, without an error to compare it with)."""
     began = start if gap < BOUNDARY else start - gap
-    if gap > WINDOW:  # a longer stretch not judged: where it began is too far from the change to date it
-        return {}
+    if gap > WINDOW:
+        began = _likeliest_split(shifted[0], began, start) if shifted is not None else None
+        if began is None:
+            return {}
     steps = _steps(frame, began, timing, KEPT if charts else None)
     if shifted is None:
         return steps
@@ -368,6 +382,16 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
     return steps
 
 
+def _likeliest_split(values: np.ndarray, first: int, last: int) -> int | None:
+    """The index in ``values[first:last]`` that splits it into the two levels that fit it best (None: too short,
+    or a value missing)."""
+    stretch = values[first:last]
+    if len(stretch) < 2 or not np.isfinite(stretch).all():
+        return None
+    split, misfit = two_levels(stretch)
+    return first + int(split[np.argmin(misfit)])
+
+
 def shift_without_setting(values: pd.Series, step: tuple, shifted, judged, shift: float, start: int) -> bool:
     """Whether the shift shows on the parts since ``start`` at which the setting is not at its new level: before
     it stepped (a setting that moved some parts after the change began), or after it went back (a campaign that
@@ -383,6 +407,16 @@ def shift_without_setting(values: pd.Series, step: tuple, shifted, judged, shift
         return False
     stays = shifted[left] * np.sign(shift)  # and clearly so, beyond the parts' scatter
     return float(np.mean(stays)) / abs(shift) > STAYS and np.mean(stays) > 3 * np.std(stays) / np.sqrt(left.sum())
+
+
+def _stepped(name: str, step: tuple[int, float, float], known, shift: float, unit: str) -> tuple[str, str, str]:
+    """(kind, column, text) for a setting that stepped where the change began. A known cause's column (the models'
+    extension) is no new candidate: the models expect its effect at the new level, and the plant answers it
+    otherwise, so its effect changed."""
+    if name in known:
+        text = f"the {name} effect changed: since {_step_text(name, step)} the parts sit {shift:+.1f} {unit} off"
+        return KNOWN, name, text + " what the models expect there"
+    return NEW, name, _step_text(name, step)
 
 
 def _step_text(name: str, step: tuple[int, float, float]) -> str:
