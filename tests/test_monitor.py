@@ -460,6 +460,14 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
 
 
+def test_a_step_is_dated_within_a_few_parts_of_the_start_and_its_levels_compared_either_side_of_it():
+    rng = np.random.default_rng(5)
+    values = np.r_[np.full(400, 0.45), np.full(400, 0.55)] + rng.normal(0, 0.004, 800)
+    at, low, high = step_of(values, 403)  # the chart dated the change 3 parts late: the new level is before it
+    assert at == 400 and low == pytest.approx(0.45, abs=0.01) and high == pytest.approx(0.55, abs=0.01)
+    assert step_of(values, 430) is None  # a campaign's step 30 parts before the change is no step at it
+
+
 def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
     rng = np.random.default_rng(4)  # a lubrication that scattered from part to part, then set to 2.0 g/m2
     values = np.r_[rng.normal(1.2, 0.2, 400), rng.normal(2.0, 0.01, 400)]
@@ -581,6 +589,15 @@ def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousa
     kind, column, _ = _named([], frame, 1100, predictor, 3.0, "mm", gap=100)  # the parts 1,001-1,100 not judged
     assert (kind, column) == (NEW, "shim")
     kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3000)  # 3,000 not judged: too far
+    assert (kind, column) == (UNEXPLAINED, None)
+    # unless the residual itself (there without an error to judge it by) steps where the shim stepped inside the
+    # stretch not judged (parts 501-4,000)
+    residual, judged = rng.normal(0, 1.0, 5000), np.arange(5000) >= 4000
+    stepped = residual + 3.0 * (np.arange(5000) >= 1000)
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3500, shifted=(stepped, judged))
+    assert (kind, column) == (NEW, "shim")
+    later = residual + 3.0 * (np.arange(5000) >= 2500)  # it stepped 1,500 parts after the shim: not the shim
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3500, shifted=(later, judged))
     assert (kind, column) == (UNEXPLAINED, None)
 
 

@@ -305,13 +305,13 @@ def _named(found, frame, start, predictor, shift, unit, gap=0, known_moved=None,
         fit = physical[0]
         name = fit.candidate.name
         if name in steps:
-            return _stepped(name, steps[name], known, shift, unit)
+            return NEW, name, _step_text(name, steps[name])
         if fit.candidate.kind == "group":
             return NEW, name, f"a change with {name}: the parts since part {start + 1:,} sit {shift:+.1f} {unit} off"
         return NEW, name, f"a new effect of {name}, {fit.effect_range:.1f} {unit} over its range in the batch"
     if steps:  # time alone explains it, and a setting stepped to a new level where it started: that setting
         name = max(steps, key=lambda c: abs(steps[c][2] - steps[c][1]) / (np.std(frame[c].to_numpy(float)) + 1e-12))
-        return _stepped(name, steps[name], known, shift, unit)
+        return NEW, name, _step_text(name, steps[name])
     for column in frame.columns if gap < BOUNDARY and regime is None else []:  # a new coil began where it started
         at = boundary_of(frame[column], start) if column not in timing else None
         if at is not None:
@@ -407,16 +407,6 @@ def shift_without_setting(values: pd.Series, step: tuple, shifted, judged, shift
         return False
     stays = shifted[left] * np.sign(shift)  # and clearly so, beyond the parts' scatter
     return float(np.mean(stays)) / abs(shift) > STAYS and np.mean(stays) > 3 * np.std(stays) / np.sqrt(left.sum())
-
-
-def _stepped(name: str, step: tuple[int, float, float], known, shift: float, unit: str) -> tuple[str, str, str]:
-    """(kind, column, text) for a setting that stepped where the change began. A known cause's column (the models'
-    extension) is no new candidate: the models expect its effect at the new level, and the plant answers it
-    otherwise, so its effect changed."""
-    if name in known:
-        text = f"the {name} effect changed: since {_step_text(name, step)} the parts sit {shift:+.1f} {unit} off"
-        return KNOWN, name, text + " what the models expect there"
-    return NEW, name, _step_text(name, step)
 
 
 def _step_text(name: str, step: tuple[int, float, float]) -> str:
