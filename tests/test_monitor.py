@@ -466,6 +466,7 @@ def test_a_step_is_dated_within_a_few_parts_of_the_start_and_its_levels_compared
     at, low, high = step_of(values, 403)  # the chart dated the change 3 parts late: the new level is before it
     assert at == 400 and low == pytest.approx(0.45, abs=0.01) and high == pytest.approx(0.55, abs=0.01)
     assert step_of(values, 430) is None  # a campaign's step 30 parts before the change is no step at it
+    assert step_of(values, 375) is None  # nor one 25 parts after it
 
 
 def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
@@ -599,6 +600,13 @@ def test_a_step_is_dated_where_a_short_stretch_not_judged_began_and_never_thousa
     later = residual + 3.0 * (np.arange(5000) >= 2500)  # it stepped 1,500 parts after the shim: not the shim
     kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3500, shifted=(later, judged))
     assert (kind, column) == (UNEXPLAINED, None)
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3500, shifted=(residual, judged))
+    assert (kind, column) == (UNEXPLAINED, None)  # it did not step inside the stretch: nothing is dated there
+    faint = np.tile([1.0, -1.0], 2500) + 0.05 * (np.arange(5000) >= 1000)  # likeliest at 1,000, but 1 SE
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3500, shifted=(faint, judged))
+    assert (kind, column) == (UNEXPLAINED, None)
+    kind, column, _ = _named([], frame, 4000, predictor, 3.0, "mm", gap=3000, shifted=(stepped, judged))
+    assert (kind, column) == (NEW, "shim")  # the stretch not judged began where the shim stepped
 
 
 def test_a_new_suppliers_ids_are_named_before_a_setting_that_steps_where_they_begin(predictor):

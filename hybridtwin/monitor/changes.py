@@ -29,7 +29,7 @@ MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: th
 SHARE_MARGIN = 0.02
 BOUNDARY = 10  # parts from the start a new coil or a setting's step must begin at to be named with the change
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
-WINDOW = 300  # parts either side of the start a setting's step is looked for in
+WINDOW = 300  # parts before a setting's step whose levels it must leave (and after it, without the regime charts)
 KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
 STAYS = 0.5  # a shift that keeps this share of itself where a stepped setting left its new level is not that setting's
 STEPS = ("step", "sigmoid")  # forms that are a step in time when the column is a clock
@@ -88,7 +88,10 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     near = np.abs(first + split - start) <= BOUNDARY
     if not near.any():
         return None
-    at = first + int(split[near][np.argmin(misfit[near])])
+    best = int(np.argmin(np.where(near, misfit, np.inf)))
+    if misfit[best] > misfit[np.abs(split - split[best]) <= BOUNDARY].min():  # a step further on than BOUNDARY
+        return None
+    at = first + int(split[best])
     before, after = values[max(0, at - window) : at], values[at : at + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
@@ -352,11 +355,10 @@ def _dated_steps(frame, start: int, gap: int, timing: set, charts: bool, shifted
     """The settings that step where the change began (:func:`_steps`; with the regime ``charts``, to a level they
     keep KEPT parts), less those whose new level the shift does not follow (:func:`shift_without_setting`). After
     a longer stretch not judged (a setting stepped beyond every logged part: its parts cannot be judged until the
-    batch comes back near the log), the change is dated inside it where the residual itself steps (it is there
-    on parts not judged too, without an error to compare it with)."""
+    batch comes back near the log), where the residual itself steps inside it (:func:`_dated_inside`)."""
     began = start if gap < BOUNDARY else start - gap
     if gap > WINDOW:
-        began = _likeliest_split(shifted[0], began, start) if shifted is not None else None
+        began = _dated_inside(shifted, start - gap, start, shift) if shifted is not None else None
         if began is None:
             return {}
     steps = _steps(frame, began, timing, KEPT if charts else None)
@@ -367,6 +369,27 @@ def _dated_steps(frame, start: int, gap: int, timing: set, charts: bool, shifted
         for name, step in steps.items()
         if not shift_without_setting(frame[name], step, *shifted, shift, began)
     }
+
+
+def _dated_inside(shifted, first: int, last: int, shift: float) -> int | None:
+    """Where the residual steps by the shift's sign inside the parts ``first`` to ``last - 1``, which were not
+    judged (the residual is there, without an error to compare it with): the likeliest start of a shift from its
+    level before the change (:func:`chart.likeliest_start`), if the parts from there sit off the stretch's parts
+    before it (or off zero, the level before the change, where none are) by three standard errors; else None.
+    ``shifted``: (the residual less its level before the change, the judged parts)."""
+    from hybridtwin.monitor.chart import likeliest_start
+
+    residual = np.asarray(shifted[0], float)
+    at = likeliest_start(residual, first, last - 1, 1 if shift >= 0 else -1)
+    before, after = residual[first:at], residual[at:last]
+    before, after = before[np.isfinite(before)], after[np.isfinite(after)]
+    if len(after) < MIN_BEFORE:
+        return None
+    error = np.var(after) / len(after)
+    reference = 0.0
+    if len(before) >= MIN_BEFORE:
+        reference, error = float(np.mean(before)), error + np.var(before) / len(before)
+    return at if (np.mean(after) - reference) * np.sign(shift) > 3 * np.sqrt(error) else None
 
 
 def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None) -> dict:
@@ -380,16 +403,6 @@ def _steps(frame: pd.DataFrame, start: int, timing: set, kept: int | None = None
             if step is not None:
                 steps[column] = step
     return steps
-
-
-def _likeliest_split(values: np.ndarray, first: int, last: int) -> int | None:
-    """The index in ``values[first:last]`` that splits it into the two levels that fit it best (None: too short,
-    or a value missing)."""
-    stretch = values[first:last]
-    if len(stretch) < 2 or not np.isfinite(stretch).all():
-        return None
-    split, misfit = two_levels(stretch)
-    return first + int(split[np.argmin(misfit)])
 
 
 def shift_without_setting(values: pd.Series, step: tuple, shifted, judged, shift: float, start: int) -> bool:
