@@ -466,7 +466,9 @@ def test_a_step_is_dated_within_a_few_parts_of_the_start_and_its_levels_compared
     at, low, high = step_of(values, 403)  # the chart dated the change 3 parts late: the new level is before it
     assert at == 400 and low == pytest.approx(0.45, abs=0.01) and high == pytest.approx(0.55, abs=0.01)
     assert step_of(values, 430) is None  # a campaign's step 30 parts before the change is no step at it
-    assert step_of(values, 375) is None  # nor one 25 parts after it
+    at, _, _ = step_of(values, 375)  # one 25 parts after it is dated at its part (the shift then tells)
+    assert at == 400
+    assert step_of(values, 340) is None  # one 60 parts after it is not looked for
 
 
 def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():

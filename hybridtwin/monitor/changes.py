@@ -27,7 +27,7 @@ MAX_ROWS = 3000  # parts the diagnosis reads (a seeded sample, in order)
 MIN_BEFORE = 30  # parts before the start that make a reference level (fewer: the models' own, zero)
 # a cause must explain this much more of the residual (held out) than a step at the start, which is time alone
 SHARE_MARGIN = 0.02
-BOUNDARY = 10  # parts from the start a new coil or a setting's step must begin at to be named with the change
+BOUNDARY = 10  # parts from the start a new coil must begin at (a setting's step: at most before) to be named with it
 LOCAL = 50  # parts either side of the start in which a step, not a trend, must fit
 WINDOW = 300  # parts before a setting's step whose levels it must leave (and after it, without the regime charts)
 KEPT = 1000  # with the regime charts, parts a stepped setting must keep its new level for (campaigns are shorter)
@@ -73,25 +73,22 @@ def clocks(frame: pd.DataFrame) -> set[str]:
 
 
 def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | None = None):
-    """A step of a numeric column near ``start`` (within BOUNDARY parts: the chart dates a change a few parts late
-    or early) to a level it never had in the ``window`` parts before the step and keeps for the ``kept`` parts after
-    it (default ``window``; fewer if the batch ends): (the index it steps at, the level before, the level after),
-    or None."""
+    """A step of a numeric column near ``start`` (from BOUNDARY parts before it to LOCAL after it) to a level it
+    never had in the ``window`` parts before the step and keeps for the ``kept`` parts after it (default
+    ``window``; fewer if the batch ends): (the index it steps at, the level before, the level after), or None."""
     first = max(0, start - LOCAL)  # the split is looked for near the start: campaigns may change further away
     around = values[first : start + LOCAL]
     if len(around) < MIN_BEFORE or not np.isfinite(around).all():
         return None
     split, misfit = two_levels(around)
-    # the step is dated where two levels fit best within BOUNDARY parts of the start (a campaign that changed a
-    # few dozen parts before is no step at the change); the levels are compared either side of it, not of the
-    # start: parts of the new level before a start dated late would make it a level the setting had before
-    near = np.abs(first + split - start) <= BOUNDARY
+    # the step is dated where two levels fit best from BOUNDARY parts before the start (a start dated late; a
+    # campaign that changed a few dozen parts before is no step at the change) to LOCAL after it (a setting moved
+    # after the change began: shift_without_setting judges it); the levels are compared either side of it, not of
+    # the start: parts of the new level before a start dated late would make it a level the setting had before
+    near = first + split >= start - BOUNDARY
     if not near.any():
         return None
-    best = int(np.argmin(np.where(near, misfit, np.inf)))
-    if misfit[best] > misfit[np.abs(split - split[best]) <= BOUNDARY].min():  # a step further on than BOUNDARY
-        return None
-    at = first + int(split[best])
+    at = first + int(split[near][np.argmin(misfit[near])])
     before, after = values[max(0, at - window) : at], values[at : at + (kept or window)]
     if len(before) < MIN_BEFORE or len(after) < MIN_BEFORE:
         return None
