@@ -483,6 +483,12 @@ def test_a_step_from_a_scattered_level_to_a_steady_one_is_a_step():
     warming = 20 + 0.005 * np.arange(2000) + np.random.default_rng(4).normal(0, 0.2, 2000)
     assert step_of(warming, 600, kept=1000) is None
     assert step_of(np.where(np.arange(800) == 420, np.nan, values), 402) is None  # a part not logged: no date
+    # a setting that scattered by 12 from part to part, set 3 of those above its mean: a step on every draw (a bound
+    # that asked a line to leave twice the part-to-part scatter missed half of them)
+    for seed in range(10):
+        scattered = np.random.default_rng(seed)
+        stepped = np.r_[scattered.normal(222, 12, 400), scattered.normal(259, 0.4, 400)]
+        assert abs(step_of(stepped, 400)[0] - 400) <= 1
 
 
 def test_a_new_coil_that_begins_where_the_change_starts_is_found_and_an_id_per_part_is_not():

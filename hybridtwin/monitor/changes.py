@@ -98,12 +98,12 @@ def step_of(values: np.ndarray, start: int, window: int = WINDOW, kept: int | No
     if np.mean((after < low) | (after > high)) < 0.9:
         return None
     n = len(around)
-    # a step, not a trend (a die warming up): a straight line leaves a misfit beyond the setting's own scatter from
-    # part to part (at least as large again), and two levels take far the most of it (one side of a step may
-    # scatter more than the other)
+    # a step, not a trend (a die warming up): two levels fit clearly better than a straight line (it leaves half as
+    # much again), and take far the most of the line's misfit beyond the setting's own scatter from part to part
+    # (one side of a step may scatter more than the other: a scattered setting set to a steady level)
     line = np.sum((around - np.polyval(np.polyfit(np.arange(n), around, 1), np.arange(n))) ** 2)
     scatter = n * np.sum(np.diff(around) ** 2) / (2 * (n - 1))
-    if line < 2 * scatter or np.min(misfit) - scatter > 0.25 * (line - scatter):
+    if line < 1.5 * np.min(misfit) or np.min(misfit) - scatter > 0.25 * (line - scatter):
         return None
     return at, float(np.median(before)), float(np.median(after))
 
