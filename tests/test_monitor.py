@@ -460,7 +460,7 @@ def test_a_setting_that_steps_to_a_new_level_is_named_and_a_warming_trend_is_not
     assert clocks(frame.assign(x=rng.normal(size=10))) == {"strokes", "t"}
 
 
-def test_a_step_is_dated_within_a_few_parts_of_the_start_and_its_levels_compared_either_side_of_it():
+def test_a_step_is_looked_for_from_a_few_parts_before_the_start_and_its_levels_compared_either_side_of_it():
     rng = np.random.default_rng(5)
     values = np.r_[np.full(400, 0.45), np.full(400, 0.55)] + rng.normal(0, 0.004, 800)
     at, low, high = step_of(values, 403)  # the chart dated the change 3 parts late: the new level is before it
