@@ -9,6 +9,12 @@ predictor then answers the fresh parts, and each region's coverage of their meas
 counted again on the parts before that alarm: after it the tool no longer vouches for its models. Usage:
 
     python benchmarks/fresh_coverage.py --plants 8 --seed 1          # about 2 minutes a plant, alone on 2 cores
+    python benchmarks/fresh_coverage.py --plants 8 --seed 10 --keep runs/fresh10
+    python benchmarks/fresh_coverage.py --replay runs/fresh10        # the intervals again with today's code
+
+``--keep`` leaves each plant's workflow run and its fresh parts in the folder; ``--replay`` reruns only the
+intervals' step (``prediction_intervals``) on the kept runs, and counts the coverage again: a change of the
+intervals' rule measured in a minute a plant, on the same models.
 
 Writes benchmarks/results/fresh_coverage.csv (a row per plant and region) and fresh_coverage.md (the summary).
 Goal (issue 29): in support within nominal +-2 points, out of support at least nominal - 2 in every region.
@@ -17,6 +23,8 @@ Goal (issue 29): in support within nominal +-2 points, out of support at least n
 from __future__ import annotations
 
 import argparse
+import contextlib
+import json
 import subprocess
 import sys
 import tempfile
@@ -160,29 +168,68 @@ def summary(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+def _plant_folder(keep: Path | None, index: int):
+    """Where a plant's workflow runs: a scratch folder, or with ``--keep`` one that stays (``keep``/p<index>)."""
+    if keep is None:
+        return tempfile.TemporaryDirectory()
+    (keep / f"p{index}").mkdir(parents=True, exist_ok=True)
+    return contextlib.nullcontext(str(keep / f"p{index}"))
+
+
+def rerun_intervals(folder: Path) -> None:
+    """The kept run's intervals step (and what reads it) again with today's package, every other step kept."""
+    command = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(folder)]
+    command += ["--configfile", str(folder / "plant.yaml"), "--cores", "2", "--quiet"]
+    command += ["--forcerun", "prediction_intervals", "--rerun-triggers", "mtime"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def answer_fresh(name: str, n_log: int, models: Path, fresh: pd.DataFrame, target: str) -> list[dict]:
+    """The frozen predictor's coverage of the fresh parts, per region, with the daily check's first alarm."""
+    predictor = Predictor.load(models)
+    answers = predictor.predict(fresh, all_models=True)
+    alarm_at = watch.watch(predictor, fresh, explain=False).chart.alarm_at
+    found = coverage_rows(name, n_log, answers, fresh[target].to_numpy(float), predictor.level, alarm_at)
+    for row in found:  # the monitor's first alarm (1-based part of the fresh period), NaN: none
+        row["monitor_alarm_at"] = np.nan if alarm_at is None else alarm_at + 1
+    alarm = "no alarm" if alarm_at is None else f"monitor alarm at part {alarm_at + 1:,}"
+    covered = "; ".join(f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found)
+    print(f"{name:28s} log {n_log:>6,}: {covered}; {alarm}", flush=True)
+    return found
+
+
+def replay(keep: Path) -> list[dict]:
+    """Every kept plant's coverage with the intervals fitted again by today's code."""
+    rows = []
+    for folder in sorted(keep.glob("p*"), key=lambda path: int(path.name[1:])):
+        meta = json.loads((folder / "meta.json").read_text())
+        rerun_intervals(folder)
+        fresh = pd.read_parquet(folder / "fresh.parquet")
+        rows += answer_fresh(meta["plant"], meta["n_log"], folder / "results" / "models", fresh, meta["target"])
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--plants", type=int, default=8)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--keep", type=Path, help="keep each plant's run and its fresh parts in this folder")
+    parser.add_argument("--replay", type=Path, help="only fit the intervals of a --keep folder's runs again")
+    parser.add_argument("--name", default="fresh_coverage", help="the results' file name")
     args = parser.parse_args()
-    rows = []
-    for index in range(args.plants):
+    rows = replay(args.replay) if args.replay else []
+    for index in range(0 if args.replay else args.plants):
         name, doe, log, fresh, inputs, target, simulate = plant(index, args.seed)
-        with tempfile.TemporaryDirectory() as scratch:
+        with _plant_folder(args.keep, index) as scratch:
             matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index), simulate)
             models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
-            predictor = Predictor.load(models)
-            answers = predictor.predict(fresh, all_models=True)
-            alarm_at = watch.watch(predictor, fresh, explain=False).chart.alarm_at
-        found = coverage_rows(name, len(log), answers, fresh[target].to_numpy(float), predictor.level, alarm_at)
-        for row in found:  # the monitor's first alarm (1-based part of the fresh period), NaN: none
-            row["monitor_alarm_at"] = np.nan if alarm_at is None else alarm_at + 1
-        rows += found
-        alarm = "no alarm" if alarm_at is None else f"monitor alarm at part {alarm_at + 1:,}"
-        covered = "; ".join(f"{r['region']} {r['coverage']:.1%} of {r['n_fresh']}" for r in found)
-        print(f"{name:28s} log {len(log):>6,}: {covered}; {alarm}", flush=True)
+            rows += answer_fresh(name, len(log), models, fresh, target)
+            if args.keep is not None:
+                fresh.to_parquet(Path(scratch) / "fresh.parquet")
+                meta = {"plant": name, "n_log": len(log), "target": target}
+                (Path(scratch) / "meta.json").write_text(json.dumps(meta))
     table = pd.DataFrame(rows)
-    print(write_results(OUT, "fresh_coverage", "Intervals on the next production period", table, summary(table)))
+    print(write_results(OUT, args.name, "Intervals on the next production period", table, summary(table)))
 
 
 if __name__ == "__main__":

@@ -367,17 +367,26 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     t = inputs["t"].to_numpy()
     usable = ~((~inside & (distance > distance[calibration & ~inside].max())) | (t - 10 > (t[calibration] - 10).max()))
     assert not usable.all()
+    # out of the support, widened where the corrections disagree more than on the calibration parts
+    corrections = ("pred_hybrid_oof", "pred_extended_oof", "pred_extended_hybrid_oof")
+    spread = np.std(table[list(corrections)].to_numpy(), axis=1)
     for name in ("in_support", "out_of_support_1", "out_of_support_3"):
         for model in ("hybrid", "surrogate"):
             prediction = honest[model]
             cal = calibration & (region == name)
             test = ~calibration & (region == name) & usable
-            half = _half_width(np.abs(measured[cal] - prediction[cal]), level)
+            errors = np.abs(measured[cal] - prediction[cal])
+            half = _half_width(errors, level)
+            if name != "in_support":
+                floor = 2 * np.median(spread[cal])
+                local = _half_width(errors / (spread[cal] + floor), level) * (spread[test] + floor)
+                half = np.maximum(half, local)
+                assert (local > _half_width(errors, level)).any() and (local < _half_width(errors, level)).any()
             row = rows.loc[(name, model, "by_region")]
             assert row["n_test"] == test.sum() and row["n_calibration"] == cal.sum()
             assert row["coverage"] == pytest.approx(np.mean(np.abs(measured[test] - prediction[test]) <= half))
             assert row["coverage_truth"] == pytest.approx(np.mean(np.abs(truth[test] - prediction[test]) <= half))
-            assert row["mean_width"] == pytest.approx(2 * half, abs=1e-5)
+            assert row["mean_width"] == pytest.approx(np.mean(2 * half), abs=1e-5)
             assert row["rmse_test"] == pytest.approx(np.sqrt(np.mean((measured[test] - prediction[test]) ** 2)))
             assert row["rmse_truth_test"] == pytest.approx(np.sqrt(np.mean((truth[test] - prediction[test]) ** 2)))
             assert row["nominal_level"] == level
@@ -491,6 +500,45 @@ def test_the_interval_holds_its_level_on_nine_calibration_draws_in_ten_however_f
     assert intervals.conformal_rank(n, 0.9, delta=0.5) in (plain - 1, plain)  # the median draw: the plain quantile
 
 
+def test_out_of_support_the_interval_widens_where_the_corrections_disagree_more_than_where_it_was_calibrated():
+    # a part's error grows with the corrections' disagreement there (plus the floor: twice its median on the
+    # calibration parts); the calibration parts disagree by 0.2 to 1, the parts asked about by 1 to 3: the plain
+    # interval covers them far below its level, the widened one at it; where they disagree as little as the
+    # calibration parts, it is the plain one
+    rng = np.random.default_rng(3)
+    calibrating, asked = rng.uniform(0.2, 1.0, 3000), rng.uniform(1.0, 3.0, 3000)
+    floor = intervals.SPREAD_FLOOR * np.median(calibrating)
+    errors, new_errors = (rng.normal(0, 0.5, 3000) * (spread + floor) for spread in (calibrating, asked))
+    region = "out_of_support_1"
+    fitted = intervals.RegionIntervals(
+        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"m": {region: list(calibrating)}}
+    )
+    regions_asked = np.full(3000, region, object)
+    lower, upper = fitted.interval("m", np.zeros(3000), regions_asked, 0.9, asked)
+    _, plain_upper = fitted.interval("m", np.zeros(3000), regions_asked, 0.9)
+    assert np.mean(np.abs(new_errors) <= upper) >= 0.9 > 0.8 > np.mean(np.abs(new_errors) <= plain_upper)
+    assert np.all(upper > plain_upper) and np.array_equal(lower, -upper)
+    assert fitted.interval("m", [0.0], [region], 0.9, [0.2])[1][0] == plain_upper[0]
+    # where a correction has no value on the row, or they agreed on every calibration part, the plain interval
+    assert fitted.interval("m", [0.0], [region], 0.9, [np.nan])[1][0] == plain_upper[0]
+    agreed = intervals.RegionIntervals(
+        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"m": {region: [0.0] * 3000}}
+    )
+    assert agreed.interval("m", [0.0], [region], 0.9, [1.0])[1][0] == plain_upper[0]
+
+
+def test_the_disagreement_is_that_of_the_corrections_and_none_without_one():
+    predictions = {
+        "hybrid": np.array([1.0, 2.0]),
+        "extended": np.array([3.0, 2.0]),
+        "extended_hybrid": np.array([2.0, 2.0]),
+    }
+    np.testing.assert_allclose(intervals.disagreement({**predictions, "surrogate": np.zeros(2)}), [np.sqrt(2 / 3), 0])
+    assert intervals.disagreement({"hybrid": np.ones(2)}) is None
+    assert regions.is_outside("out_of_support_2") and regions.is_outside(regions.BEYOND_RANGE)
+    assert not regions.is_outside("in_support") and not regions.is_outside("all")
+
+
 def test_too_few_calibration_parts_for_the_level_give_no_interval():
     assert intervals.min_calibration_rows(0.9) == 22 and intervals.min_calibration_rows(0.99) == 230
     assert intervals.conformal_rank(21, 0.9) is None and intervals.conformal_rank(22, 0.9) == 22
@@ -589,9 +637,9 @@ def test_stored_intervals_reload_to_the_same_answers_and_older_files_read_as_bef
     pd.testing.assert_frame_equal(answers, again_answers)
     assert answers["pred_lower"].notna().all()
     # a file written before the stack, the calibrated reach and the region beyond the DoE's ranges were stored
-    later_keys = ("stack_weights", "calibrated_reach", "beyond_region")
+    later_keys = ("stack_weights", "calibrated_reach", "beyond_region", "calibration_spreads")
     older = intervals.RegionIntervals.from_dict({key: value for key, value in stored.items() if key not in later_keys})
-    assert older.weights == {} and older.reach == {} and older.beyond_region is False
+    assert older.weights == {} and older.reach == {} and older.beyond_region is False and older.spreads == {}
 
 
 def test_models_without_a_row_in_common_are_each_ranked_on_their_own_rows():

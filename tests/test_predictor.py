@@ -83,6 +83,26 @@ def test_a_typical_setting_is_validated_with_its_interval(predictor):
     says(answered["trust_reason"], "validated", "within the support's")
 
 
+def test_out_of_support_an_interval_widened_by_the_corrections_disagreement_says_by_how_much(parts):
+    from hybridtwin.answers.intervals import RegionIntervals
+
+    predictor = Predictor.load(MODELS)  # its own: its intervals are altered
+    plain = predictor.predict(parts, all_models=True)
+    row = plain.index[(plain["trust"] == trust.CALIBRATED) & ~plain["in_support"]][0]
+    model, region = plain.loc[row, "recommended_model"], plain.loc[row, "interval_region"]
+    # the corrections agreed to 0.01 on every part that calibrated the row's interval
+    stored = predictor.intervals.to_dict()
+    stored["calibration_spreads"] = {model: {region: [0.01] * len(stored["calibration"][model][region])}}
+    predictor.intervals = RegionIntervals.from_dict(stored)
+    answered = predictor.predict(parts.iloc[[row]], all_models=True).iloc[0]
+    spread = np.std([answered[f"pred_{name}"] for name in ("hybrid", "extended", "extended_hybrid")])
+    half, plain_half = ((frame["pred_upper"] - frame["pred_lower"]) / 2 for frame in (answered, plain.loc[row]))
+    # equal spreads: the weighted errors keep their order, and the interval scales by (spread + floor) / (0.01 + floor)
+    floor = 2 * 0.01
+    assert half == pytest.approx(plain_half * (spread + floor) / (0.01 + floor), rel=1e-6) and half > plain_half
+    says(answered["trust_reason"], "times its calibration's", f"differ by {spread:.3g} mm", "0.01 mm on the parts")
+
+
 def test_a_simulated_setting_the_plant_never_ran_is_an_extrapolation_with_no_interval(predictor):
     # both shims at 0.02 mm: inside the support and every DoE range, far from every logged part (0.43 mm and up)
     answered = predictor.predict(pd.DataFrame([{**predictor.typical, "shim20_mm": 0.02, "shim21_mm": 0.02}])).iloc[0]

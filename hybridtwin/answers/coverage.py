@@ -13,6 +13,7 @@ from hybridtwin.answers.intervals import (
     MAX_CALIBRATION_ROWS,
     RegionIntervals,
     best_model,
+    disagreement,
     honest_predictions,
     min_calibration_rows,
     recommended_prediction,
@@ -54,7 +55,9 @@ def _bounds(
             picked["pred_lower"].to_numpy(float),
             picked["pred_upper"].to_numpy(float),
         )
-    lower, upper = intervals.interval(model, predictions[model][rows], labels.interval[rows], level)
+    lower, upper = intervals.interval(
+        model, predictions[model][rows], labels.interval[rows], level, disagreement(predictions, rows)
+    )
     return predictions[model][rows], lower, upper
 
 

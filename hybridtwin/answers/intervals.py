@@ -11,6 +11,12 @@ In each region:
 - its **interval** is split-conformal (Mondrian: by region) on the calibration rows' absolute errors,
   with the finite-sample, training-conditional rule of :func:`conformal_rank`: the interval holds at least
   its level with probability ``1 - DELTA`` over the calibration parts, however few a region has.
+- **out of the support** it is widened where the models that correct the surrogate disagree more than they did on
+  the region's calibration parts (:func:`disagreement`): the half-width is the larger of the plain one and the
+  locally weighted one (Lei et al. 2018: the calibration errors scaled by each part's disagreement plus
+  :data:`SPREAD_FLOOR` times its median, their conformal quantile scaled back by the asked part's). A region is
+  a band of distance to the DoE; the parts asked about in it may be other settings than those that calibrated
+  it, and where the corrections part ways there, the plain interval's errors say nothing of them.
 
 A row inside the gate but beyond the DoE's range in some input takes the
 support's model (the models learnt from such parts) and an interval calibrated
@@ -35,6 +41,7 @@ from hybridtwin.answers.regions import (
     MIN_CALIBRATION_ROWS,
     Regions,
     as_regions,
+    is_outside,
     same_word,
 )
 from hybridtwin.io.files import in_support, table_of
@@ -56,6 +63,9 @@ STACK = registry.STACK.name
 
 
 MAX_CALIBRATION_ROWS = 5000
+# the locally weighted interval's scale: a part's disagreement plus this many times the region's median, so that
+# where the corrections happen to agree the part's noise (which their agreement does not shrink) still counts
+SPREAD_FLOOR = 2.0
 # the intervals hold at least their level with this probability over the draw of a region's calibration parts
 # (a small region's errors are a small sample: its plain conformal quantile covers less than the level half the time)
 DELTA = 0.1
@@ -73,6 +83,17 @@ def conformal_rank(n: int, level: float, delta: float = DELTA) -> int | None:
     ranks = np.arange(1, n + 1)
     good = ranks[beta.cdf(level, ranks, n + 1 - ranks) <= delta]
     return int(good[0]) if len(good) else None
+
+
+def disagreement(predictions: dict[str, np.ndarray], rows=None) -> np.ndarray | None:
+    """Per row (of ``rows``, default all), the standard deviation of the corrections' predictions
+    (:data:`registry.CORRECTIONS`); NaN where one has no value (None where one is not given at all)."""
+    if not all(name in predictions for name in registry.CORRECTIONS):
+        return None
+    rows = slice(None) if rows is None else rows
+    values = [np.asarray(predictions[name], float)[rows] for name in registry.CORRECTIONS]
+    mean = sum(values) / len(values)  # column by column: no table of every row's values (ten million parts)
+    return np.sqrt(sum((value - mean) ** 2 for value in values) / len(values))
 
 
 def min_calibration_rows(level: float, delta: float = DELTA) -> int:
@@ -154,8 +175,12 @@ class RegionIntervals:
         weights: dict[str, dict[str, float]] | None = None,
         reach: dict[str, list[float]] | None = None,
         beyond_region: bool = False,
+        spreads: dict[str, dict[str, list[float]]] | None = None,
     ):
         self.calibration = calibration
+        # out of the support, per model and region, the corrections' disagreement on each calibration part (in the
+        # order of its errors); none stored: the plain interval
+        self.spreads = spreads or {}
         self.ranking = ranking
         self.weights = weights or {}
         self.edges = list(edges)
@@ -166,6 +191,13 @@ class RegionIntervals:
             model: {region: np.sort(np.asarray(errors, float)) for region, errors in per_region.items()}
             for model, per_region in calibration.items()
         }
+        weighted = (
+            ((model, region), _weighted_scores(calibration[model][region], spread))
+            for model, per_region in self.spreads.items()
+            for region, spread in per_region.items()
+        )
+        # where the corrections agreed on every calibration part there is no scale to weigh by: the plain interval
+        self._weighted = {key: scored for key, scored in weighted if scored[1] > 0}
 
     @classmethod
     def fit(
@@ -199,24 +231,27 @@ class RegionIntervals:
             name: _ranking(measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows)
             for name, rows in ranked_rows.items()
         }
-        table = {}
+        table, spreads = {}, {}
         for name in sorted(set(region.interval[calibration])):
             rows = subsample(np.flatnonzero(calibration & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
+            spread = disagreement(candidates, rows) if is_outside(name) else None
             for model, prediction in candidates.items():
                 # a model without an honest value on a row (NaN) is not scored there
-                scored = rows[np.isfinite(prediction[rows])]
-                if len(scored):
-                    table.setdefault(model, {})[name] = np.round(
-                        np.abs(measured[scored] - prediction[scored]), 6
-                    ).tolist()
+                has = np.isfinite(prediction[rows])
+                scored = rows[has]
+                if not len(scored):
+                    continue
+                table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]), 6).tolist()
+                if spread is not None and np.isfinite(spread[has]).all():
+                    spreads.setdefault(model, {})[name] = np.round(spread[has], 6).tolist()
         if reach is not None:
             beyond_region = BEYOND_RANGE in set(region.interval[calibration])
-            return cls(table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region)
+            return cls(table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region, spreads)
         outside = calibration & (region.interval != IN_SUPPORT)
         max_distance = (
             float(np.max(np.asarray(distance, float)[outside])) if outside.any() and distance is not None else None
         )
-        return cls(table, ranking, edges, max_distance, weights)
+        return cls(table, ranking, edges, max_distance, weights, spreads=spreads)
 
     def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
         """The predictions with the stack added (each row blended with its region's weights; NaN without)."""
@@ -244,13 +279,28 @@ class RegionIntervals:
         rank = None if errors is None or not len(errors) else conformal_rank(len(errors), float(level))
         return float(errors[rank - 1]) if rank else float("nan")
 
-    def interval(self, model: str, prediction, region, level: float) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds at ``level``; NaN in a region without calibration rows (or too few)."""
+    def typical_spread(self, model: str, region: str) -> float | None:
+        """The corrections' median disagreement on the parts that calibrated ``model``'s interval in ``region``
+        (None where the interval is not weighted by it)."""
+        weighted = self._weighted.get((model, region))
+        return None if weighted is None else weighted[1] / SPREAD_FLOOR
+
+    def interval(self, model: str, prediction, region, level: float, spread=None) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds at ``level``; NaN in a region without calibration rows (or too few). ``spread``:
+        each row's :func:`disagreement`, which widens an interval out of the support (None: the plain one)."""
         prediction = np.asarray(prediction, float)
         region = np.asarray(region, object)
         half = np.full(len(prediction), np.nan)
         for name in pd.unique(region):
-            half[region == name] = self.half_width(model, name, level)
+            rows = region == name
+            half[rows] = self.half_width(model, name, level)
+            weighted = self._weighted.get((model, name))
+            if weighted is not None and spread is not None:
+                scores, floor = weighted
+                rank = conformal_rank(len(scores), float(level))
+                local = scores[rank - 1] * (np.asarray(spread, float)[rows] + floor) if rank else np.nan
+                # where a row's disagreement is unknown (a correction lacks its column), the plain interval
+                half[rows] = np.fmax(half[rows], local)
         return prediction - half, prediction + half
 
     def recommend(self, region, predictions: dict[str, np.ndarray] | None = None) -> np.ndarray:
@@ -277,6 +327,7 @@ class RegionIntervals:
             "calibrated_reach": self.reach,
             "beyond_region": self.beyond_region,
             "stack_weights": self.weights,
+            "calibration_spreads": self.spreads,
         }
 
     @classmethod
@@ -289,7 +340,17 @@ class RegionIntervals:
             data.get("stack_weights"),
             data.get("calibrated_reach"),
             data.get("beyond_region", False),
+            data.get("calibration_spreads"),
         )
+
+
+def _weighted_scores(errors, spread) -> tuple[np.ndarray, float]:
+    """The calibration errors scaled by their parts' disagreement plus the floor (sorted), and the floor."""
+    spread = np.asarray(spread, float)
+    floor = SPREAD_FLOOR * float(np.median(spread))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scores = np.asarray(errors, float) / (spread + floor)
+    return np.sort(np.where(np.isfinite(scores), scores, np.inf)), floor
 
 
 def recommended_prediction(
@@ -300,10 +361,13 @@ def recommended_prediction(
     region = as_regions(region)
     chosen = intervals.recommend(region, predictions)
     prediction, lower, upper = (np.full(len(chosen) if shown else 0, np.nan) for shown in (True, bounds, bounds))
+    spread = disagreement(predictions) if bounds else None  # the predictions of the rows asked about only
     for model in sorted(pd.unique(chosen)):
         rows = np.flatnonzero(chosen == model)
         if bounds:
-            lower[rows], upper[rows] = intervals.interval(model, predictions[model][rows], region.interval[rows], level)
+            lower[rows], upper[rows] = intervals.interval(
+                model, predictions[model][rows], region.interval[rows], level, None if spread is None else spread[rows]
+            )
         prediction[rows] = predictions[model][rows]
     # the names stay Python objects, a few shared by every row: as pandas' text dtype they were copied into Arrow,
     # and each row's name made again as an object by the monitor's calibration (1.3 GB on ten million parts)

@@ -21,6 +21,7 @@ import pandas as pd
 
 from hybridtwin.answers import answer, intervals, regions, trust
 from hybridtwin.answers.novelty import ProductionNeighbourhood
+from hybridtwin.answers.trust import numbers
 from hybridtwin.diagnosis.extension import Models
 from hybridtwin.io import data, files
 from hybridtwin.io.errors import InputError
@@ -190,7 +191,31 @@ class Predictor:
         picked = intervals.recommended_prediction(self.intervals, values, where.region, level)
         extrapolated = where.trust == trust.EXTRAPOLATION
         picked.loc[extrapolated, ["pred_lower", "pred_upper"]] = np.nan  # nothing checked an interval this far
+        self._say_why_wider(where, picked, values, level)
         return answer.assemble(frame, where, values, picked, level, all_models, self.inputs)
+
+    def _say_why_wider(self, where: answer.Where, picked: pd.DataFrame, values: dict, level: float) -> None:
+        """The reason of a row whose interval the corrections' disagreement widened says by how much and why."""
+        spread = intervals.disagreement(values)
+        if spread is None:
+            return
+        half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
+        models, interval_regions = picked["recommended_model"].to_numpy(object), where.region.interval
+        unit = self.spec.get("unit", "")
+        for model, region in set(zip(models[np.isfinite(half)], interval_regions[np.isfinite(half)])):
+            plain = self.intervals.half_width(model, region, level)
+            typical = self.intervals.typical_spread(model, region)
+            rows = (models == model) & (interval_regions == region) & (half > plain * (1 + 1e-9))
+            if typical is None or not rows.any():
+                continue
+            where.reason[rows] = (
+                where.reason[rows]
+                + "; the interval is "
+                + numbers(half[rows] / plain)
+                + " times its calibration's: the models that correct the surrogate differ by "
+                + numbers(spread[rows])
+                + f" {unit} (sd) here, {typical:.3g} {unit} on the parts that calibrated it"
+            )
 
     def where(self, X: pd.DataFrame) -> answer.Where:
         """Each row's place: distance to the DoE, support, ranges, regions, and the trust verdict."""
@@ -245,10 +270,13 @@ class Predictor:
         return self.intervals.with_stack(out, where.region)
 
     def _extended(self, frame, X, where: answer.Where, surrogate_hybrid, needed: dict) -> dict[str, np.ndarray]:
-        """The extended model and the (guarded) extended hybrid, where needed and the table has their causes'
-        columns; out of the support, where the guard let the paper's hybrid stand, that hybrid."""
+        """The extended model and the (guarded) extended hybrid, where needed or a row lies out of the support
+        (their disagreement with the paper's hybrid widens its interval), and the table has their causes' columns;
+        out of the support, where the guard let the paper's hybrid stand, that hybrid."""
         surrogate, hybrid = surrogate_hybrid
         wanted = any(needed.get(m.name, np.zeros(1, bool)).any() for m in (registry.EXTENDED, registry.EXTENDED_HYBRID))
+        # out of the support the corrections' disagreement widens the interval (intervals.disagreement)
+        wanted |= bool(np.any(where.region.interval != regions.IN_SUPPORT))
         lacking = sorted(self.extension.extension.columns - set(frame.columns))
         if lacking and wanted:
             log.warning("no column %s in the table: the extension (whose causes need it) gives no prediction", lacking)

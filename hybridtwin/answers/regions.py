@@ -24,6 +24,12 @@ def out_of_support_region(index: int) -> str:
     return f"out_of_support_{index}"
 
 
+def is_outside(name: str) -> bool:
+    """Whether an interval region is one out of the support (a distance bin, or the gate's parts beyond a DoE
+    range); the in-support region and one pooled calibration ('all') are not."""
+    return name == BEYOND_RANGE or name.startswith(out_of_support_region(""))
+
+
 def outside_range(frame: pd.DataFrame, doe_range: dict[str, tuple[float, float]]) -> pd.DataFrame:
     """How far each row lies beyond the DoE's range (``doe_range``: each input's DoE minimum and maximum), per
     input, in the input's own unit (0 inside; 0 for a missing value)."""

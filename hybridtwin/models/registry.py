@@ -143,6 +143,10 @@ COMPARED: tuple[str, ...] = (*(m.name for m in MODELS if m is not HYBRID_UNFILTE
 # models whose honest values are a column of predictions/production.csv (the others are made from them)
 WITH_OOF_COLUMN: tuple[Model, ...] = (HYBRID, HYBRID_UNFILTERED, EXTENDED, EXTENDED_HYBRID, *PEERS)
 
+# the models that correct the surrogate with the plant's parts and that every answer computes (no peer): out of the
+# support, how far they disagree on a part says how unsure the correction is there (answers.intervals.disagreement)
+CORRECTIONS: tuple[str, ...] = (HYBRID.name, EXTENDED.name, EXTENDED_HYBRID.name)
+
 # the residual models (XGBoost's own JSON), one per training set
 RESIDUAL_FILE = "residual_xgb_{training}.json"
 # the run's stored models, under its models folder: part -> file (every peer's from its entry)
