@@ -404,6 +404,20 @@ def test_settings_that_neither_step_nor_leave_the_logged_range_are_a_new_combina
     assert _moved(shim, 200, None)[0] == ("shim",)  # a setting, not a clock
 
 
+@pytest.mark.parametrize("stepped_at, named", [(195, True), (200, True), (240, True), (185, False), (260, False)])
+def test_a_departure_names_a_setting_that_steps_from_a_few_parts_before_it_to_fifty_after(stepped_at, named):
+    # the departure's part is dated from the parts not judged; the setting that took the batch there may have
+    # stepped a few parts before it (parts already beyond the log whose trust turned later) or after it
+    from hybridtwin.monitor.departure import _moved
+
+    rng = np.random.default_rng(stepped_at)
+    shim = np.r_[np.full(stepped_at, 0.5), np.full(400 - stepped_at, 0.6)] + rng.normal(0, 0.002, 400)
+    columns, text = _moved(pd.DataFrame({"shim": shim}), 200, None)
+    assert (columns == ("shim",)) is named
+    if named:
+        says(text, f"a step in shim at part {stepped_at + 1}")
+
+
 def test_the_models_store_the_logs_range_and_a_departure_is_said_against_it(predictor, parts, monkeypatch):
     spec = {**predictor.spec, "logged_range": {name: [float(parts[name].min()), float(parts[name].max())]
                                                for name in predictor.inputs}}  # fmt: skip
