@@ -511,7 +511,7 @@ def test_out_of_support_the_interval_widens_where_the_corrections_disagree_more_
     errors, new_errors = (rng.normal(0, 0.5, 3000) * (spread + floor) for spread in (calibrating, asked))
     region = "out_of_support_1"
     fitted = intervals.RegionIntervals(
-        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"m": {region: list(calibrating)}}
+        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"regions": {region: list(calibrating)}}
     )
     regions_asked = np.full(3000, region, object)
     lower, upper = fitted.interval("m", np.zeros(3000), regions_asked, 0.9, asked)
@@ -522,9 +522,41 @@ def test_out_of_support_the_interval_widens_where_the_corrections_disagree_more_
     # where a correction has no value on the row, or they agreed on every calibration part, the plain interval
     assert fitted.interval("m", [0.0], [region], 0.9, [np.nan])[1][0] == plain_upper[0]
     agreed = intervals.RegionIntervals(
-        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"m": {region: [0.0] * 3000}}
+        {"m": {region: list(np.abs(errors))}}, {}, [], None, spreads={"regions": {region: [0.0] * 3000}}
     )
     assert agreed.interval("m", [0.0], [region], 0.9, [1.0])[1][0] == plain_upper[0]
+
+
+def test_a_model_scored_on_some_calibration_parts_is_weighted_by_the_disagreement_of_those_parts():
+    # model m has a value on every other part; the corrections lack one on a few (not weighted there)
+    rng = np.random.default_rng(8)
+    n = 4000
+    measured = rng.normal(0, 1, n)
+    spread_true = rng.uniform(0.1, 2.0, n)
+    honest = {
+        "hybrid": measured + rng.normal(0, 1, n),
+        "extended": measured + rng.normal(0, 1, n),
+        "extended_hybrid": measured + rng.normal(0, 1, n),
+        "m": np.where(np.arange(n) % 2 == 0, measured + rng.normal(0, 1, n) * spread_true, np.nan),
+    }
+    honest["extended"][:40] = np.nan
+    region = regions.Regions.same(np.full(n, "out_of_support_1", object))
+    calibration = regions.calibration_rows(n, 4)
+    fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], seed=0)
+    spread = intervals.disagreement(honest)
+    # by hand: m's calibration parts with a disagreement, their errors scaled by it plus twice its median
+    rows = np.flatnonzero(calibration & np.isfinite(honest["m"]) & np.isfinite(spread))
+    floor = 2 * np.median(np.round(spread[rows], 6))
+    scores = np.round(np.abs(measured[rows] - honest["m"][rows]), 6) / (np.round(spread[rows], 6) + floor)
+    asked = np.array([0.1, 1.0, 3.0])
+    _, upper = fitted.interval("m", np.zeros(3), np.full(3, "out_of_support_1", object), 0.9, asked)
+    plain = fitted.half_width("m", "out_of_support_1", 0.9)
+    expected = np.maximum(plain, _half_width(scores, 0.9) * (asked + floor))
+    np.testing.assert_allclose(upper, expected, rtol=1e-5)
+    assert fitted.typical_spread("m", "out_of_support_1") == pytest.approx(floor / 2)
+    # a region of too few parts for the level gives no interval, weighted or not
+    few = intervals.RegionIntervals({"m": {"r": [1.0] * 10}}, {}, [], None, spreads={"regions": {"r": [0.5] * 10}})
+    assert np.isnan(few.interval("m", [0.0], ["r"], 0.9, [1.0])[1][0])
 
 
 def test_the_disagreement_is_that_of_the_corrections_and_none_without_one():
@@ -624,9 +656,15 @@ def test_stored_intervals_reload_to_the_same_answers_and_older_files_read_as_bef
     region = regions.Regions.of(inside, beyond_range, distance, [2.0], beyond_region=True)
     calibration = regions.calibration_rows(len(inside), 40)
     honest = {"hybrid": truth + rng.normal(0, 1.5, len(truth)), "gp_discrepancy": truth + rng.normal(0, 1, len(truth))}
+    honest |= {
+        "extended": truth + rng.normal(0, 1, len(truth)),
+        "extended_hybrid": truth + rng.normal(0, 1, len(truth)),
+    }
     reach = trust.Reach(1.0, 2.9, {"t": (-0.5, 0.7)}, {"t": (0.0, 1.0)}, {"t": "mm"})
     fitted = intervals.RegionIntervals.fit(measured, honest, region, calibration, [2.0], distance, reach=reach)
     assert fitted.beyond_region and fitted.weights and fitted.max_distance == 2.9 and fitted.reach == reach.beyond
+    # the corrections' disagreement on the calibration parts out of the support, stored (what the predictor reads)
+    assert set(fitted.spreads["regions"]) == {"out_of_support_1", "out_of_support_2", regions.BEYOND_RANGE}
     stored = json.loads(json.dumps(fitted.to_dict()))
     again = intervals.RegionIntervals.from_dict(stored)
     assert json.loads(json.dumps(again.to_dict())) == stored

@@ -83,24 +83,45 @@ def test_a_typical_setting_is_validated_with_its_interval(predictor):
     says(answered["trust_reason"], "validated", "within the support's")
 
 
-def test_out_of_support_an_interval_widened_by_the_corrections_disagreement_says_by_how_much(parts):
+def _with_spreads(predictor, region: str, spread: float, ranking=None):
+    """``predictor`` with the corrections' disagreement on every part that calibrated ``region`` set to ``spread``
+    (and the region's ranking set to ``ranking``)."""
     from hybridtwin.answers.intervals import RegionIntervals
 
-    predictor = Predictor.load(MODELS)  # its own: its intervals are altered
-    plain = predictor.predict(parts, all_models=True)
-    row = plain.index[(plain["trust"] == trust.CALIBRATED) & ~plain["in_support"]][0]
-    model, region = plain.loc[row, "recommended_model"], plain.loc[row, "interval_region"]
-    # the corrections agreed to 0.01 on every part that calibrated the row's interval
     stored = predictor.intervals.to_dict()
-    stored["calibration_spreads"] = {model: {region: [0.01] * len(stored["calibration"][model][region])}}
+    n = max(len(per_region.get(region, [])) for per_region in stored["calibration"].values())
+    stored["calibration_spreads"] = {"regions": {region: [spread] * n}}
+    if ranking:
+        stored["ranking"][region] = ranking
     predictor.intervals = RegionIntervals.from_dict(stored)
-    answered = predictor.predict(parts.iloc[[row]], all_models=True).iloc[0]
-    spread = np.std([answered[f"pred_{name}"] for name in ("hybrid", "extended", "extended_hybrid")])
-    half, plain_half = ((frame["pred_upper"] - frame["pred_lower"]) / 2 for frame in (answered, plain.loc[row]))
+    return predictor
+
+
+def test_out_of_support_an_interval_widened_by_the_corrections_disagreement_says_by_how_much(parts):
+    plain = Predictor.load(MODELS).predict(parts, all_models=True)
+    row = plain.index[(plain["trust"] == trust.CALIBRATED) & ~plain["in_support"]][0]
+    region = plain.loc[row, "interval_region"]
+    # the corrections agreed to 0.01 on every part that calibrated the row's interval; the region recommends the
+    # paper's hybrid, so that the default answer computes the extended models for the interval alone
+    predictor = _with_spreads(Predictor.load(MODELS), region, 0.01, ["hybrid"])
+    answered = predictor.predict(parts.iloc[[row]]).iloc[0]
+    every = predictor.predict(parts.iloc[[row]], all_models=True).iloc[0]
+    spread = np.std([every[f"pred_{name}"] for name in ("hybrid", "extended", "extended_hybrid")])
+    plain_half = predictor.intervals.half_width("hybrid", region, 0.9)
+    half = (answered["pred_upper"] - answered["pred_lower"]) / 2
     # equal spreads: the weighted errors keep their order, and the interval scales by (spread + floor) / (0.01 + floor)
     floor = 2 * 0.01
+    assert answered["recommended_model"] == "hybrid"
     assert half == pytest.approx(plain_half * (spread + floor) / (0.01 + floor), rel=1e-6) and half > plain_half
     says(answered["trust_reason"], "times its calibration's", f"differ by {spread:.3g} mm", "0.01 mm on the parts")
+    # where the corrections disagreed more on the calibration parts than here: the plain interval, no word of it
+    calm = _with_spreads(Predictor.load(MODELS), region, 100.0, ["hybrid"]).predict(parts.iloc[[row]]).iloc[0]
+    assert (calm["pred_upper"] - calm["pred_lower"]) / 2 == pytest.approx(plain_half)
+    assert "calibration's" not in calm["trust_reason"] and "not widened" not in calm["trust_reason"]
+    # without the column a cause needs (the extension names the stroke counter) nothing widens, and the reason says so
+    lacking = predictor.predict(parts.iloc[[row]].drop(columns="stroke_counter")).iloc[0]
+    assert (lacking["pred_upper"] - lacking["pred_lower"]) / 2 == pytest.approx(plain_half)
+    says(lacking["trust_reason"], "not widened where the models that correct the surrogate part ways", "stroke_counter")
 
 
 def test_a_simulated_setting_the_plant_never_ran_is_an_extrapolation_with_no_interval(predictor):

@@ -175,11 +175,12 @@ class RegionIntervals:
         weights: dict[str, dict[str, float]] | None = None,
         reach: dict[str, list[float]] | None = None,
         beyond_region: bool = False,
-        spreads: dict[str, dict[str, list[float]]] | None = None,
+        spreads: dict | None = None,
     ):
         self.calibration = calibration
-        # out of the support, per model and region, the corrections' disagreement on each calibration part (in the
-        # order of its errors); none stored: the plain interval
+        # out of the support, per region the corrections' disagreement on each of its calibration parts (None where
+        # one had no value), and per model and region the positions among them of the parts it was scored on, where
+        # not all (its errors' order); none stored: the plain interval
         self.spreads = spreads or {}
         self.ranking = ranking
         self.weights = weights or {}
@@ -191,13 +192,17 @@ class RegionIntervals:
             model: {region: np.sort(np.asarray(errors, float)) for region, errors in per_region.items()}
             for model, per_region in calibration.items()
         }
-        weighted = (
-            ((model, region), _weighted_scores(calibration[model][region], spread))
-            for model, per_region in self.spreads.items()
-            for region, spread in per_region.items()
-        )
-        # where the corrections agreed on every calibration part there is no scale to weigh by: the plain interval
-        self._weighted = {key: scored for key, scored in weighted if scored[1] > 0}
+        self._weighted = {}
+        for region, spread in self.spreads.get("regions", {}).items():
+            for model, per_region in calibration.items():
+                if region in per_region:
+                    kept = self.spreads.get("scored", {}).get(model, {}).get(region)
+                    model_spread = _as_floats(spread, kept)
+                    if len(model_spread) != len(per_region[region]):  # not the parts of its errors: plain
+                        continue
+                    weighted = _weighted_scores(per_region[region], model_spread)
+                    if weighted is not None:
+                        self._weighted[model, region] = weighted
 
     @classmethod
     def fit(
@@ -231,10 +236,12 @@ class RegionIntervals:
             name: _ranking(measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows)
             for name, rows in ranked_rows.items()
         }
-        table, spreads = {}, {}
+        table, spreads = {}, {"regions": {}, "scored": {}}
         for name in sorted(set(region.interval[calibration])):
             rows = subsample(np.flatnonzero(calibration & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
             spread = disagreement(candidates, rows) if is_outside(name) else None
+            if spread is not None:
+                spreads["regions"][name] = [None if np.isnan(v) else v for v in np.round(spread, 6).tolist()]
             for model, prediction in candidates.items():
                 # a model without an honest value on a row (NaN) is not scored there
                 has = np.isfinite(prediction[rows])
@@ -242,8 +249,8 @@ class RegionIntervals:
                 if not len(scored):
                     continue
                 table.setdefault(model, {})[name] = np.round(np.abs(measured[scored] - prediction[scored]), 6).tolist()
-                if spread is not None and np.isfinite(spread[has]).all():
-                    spreads.setdefault(model, {})[name] = np.round(spread[has], 6).tolist()
+                if spread is not None and not has.all():
+                    spreads["scored"].setdefault(model, {})[name] = np.flatnonzero(has).tolist()
         if reach is not None:
             beyond_region = BEYOND_RANGE in set(region.interval[calibration])
             return cls(table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region, spreads)
@@ -344,13 +351,22 @@ class RegionIntervals:
         )
 
 
-def _weighted_scores(errors, spread) -> tuple[np.ndarray, float]:
-    """The calibration errors scaled by their parts' disagreement plus the floor (sorted), and the floor."""
-    spread = np.asarray(spread, float)
-    floor = SPREAD_FLOOR * float(np.median(spread))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scores = np.asarray(errors, float) / (spread + floor)
-    return np.sort(np.where(np.isfinite(scores), scores, np.inf)), floor
+def _as_floats(values, kept=None) -> np.ndarray:
+    """A stored list (None for NaN) as floats, at the positions ``kept`` (default all)."""
+    floats = np.array([np.nan if v is None else v for v in values], float)
+    return floats if kept is None else floats[np.asarray(kept, int)]
+
+
+def _weighted_scores(errors, spread: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """The calibration errors of the parts with a disagreement, scaled by it plus the floor (sorted), and the floor;
+    None where no part has one, or the corrections agreed on every part (no scale to weigh by)."""
+    known = np.isfinite(spread)
+    if not known.any():
+        return None
+    floor = SPREAD_FLOOR * float(np.median(spread[known]))
+    if floor <= 0:
+        return None
+    return np.sort(np.asarray(errors, float)[known] / (spread[known] + floor)), floor
 
 
 def recommended_prediction(

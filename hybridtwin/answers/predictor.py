@@ -191,22 +191,32 @@ class Predictor:
         picked = intervals.recommended_prediction(self.intervals, values, where.region, level)
         extrapolated = where.trust == trust.EXTRAPOLATION
         picked.loc[extrapolated, ["pred_lower", "pred_upper"]] = np.nan  # nothing checked an interval this far
-        self._say_why_wider(where, picked, values, level)
+        self._say_why_wider(where, picked, values, level, frame.columns)
         return answer.assemble(frame, where, values, picked, level, all_models, self.inputs)
 
-    def _say_why_wider(self, where: answer.Where, picked: pd.DataFrame, values: dict, level: float) -> None:
-        """The reason of a row whose interval the corrections' disagreement widened says by how much and why."""
+    def _say_why_wider(self, where: answer.Where, picked: pd.DataFrame, values: dict, level: float, columns) -> None:
+        """The reason of a row whose interval the corrections' disagreement widened says by how much and why; of a
+        row where it could not (a cause's column missing), that it did not."""
         spread = intervals.disagreement(values)
         if spread is None:
             return
         half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
         models, interval_regions = picked["recommended_model"].to_numpy(object), where.region.interval
-        unit = self.spec.get("unit", "")
+        unit, lacking = self.spec.get("unit", ""), ", ".join(self.lacking(columns))
         for model, region in set(zip(models[np.isfinite(half)], interval_regions[np.isfinite(half)])):
             plain = self.intervals.half_width(model, region, level)
             typical = self.intervals.typical_spread(model, region)
-            rows = (models == model) & (interval_regions == region) & (half > plain * (1 + 1e-9))
-            if typical is None or not rows.any():
+            here = (models == model) & (interval_regions == region) & np.isfinite(half)
+            if typical is None:
+                continue
+            unknown = here & np.isnan(spread)
+            where.reason[unknown] = where.reason[unknown] + (
+                f"; not widened where the models that correct the surrogate part ways: no column {lacking}"
+                if lacking
+                else "; not widened where the models that correct the surrogate part ways: one has no value here"
+            )
+            rows = here & (half > plain * (1 + 1e-9))
+            if not rows.any():
                 continue
             where.reason[rows] = (
                 where.reason[rows]
@@ -247,9 +257,12 @@ class Predictor:
                     break
         return needed
 
-    def values(self, frame, X: pd.DataFrame, where: answer.Where, all_models: bool, n_jobs: int) -> dict:
+    def values(
+        self, frame, X: pd.DataFrame, where: answer.Where, all_models: bool, n_jobs: int, bounds: bool = True
+    ) -> dict:
         """Each model's prediction per row: the surrogate and the paper's hybrids always; the others where the
-        recommendation needs them (everywhere with ``all_models``), NaN elsewhere."""
+        recommendation needs them (everywhere with ``all_models``), NaN elsewhere; with ``bounds`` (the answer's
+        interval) the extended models out of the support too, whose disagreement with the paper's hybrid widens it."""
         n = len(X)
         needed = self.needed(where, frame.columns)
         if all_models:
@@ -260,7 +273,8 @@ class Predictor:
         out = compose.hybrids(surrogate, self.residual_filtered.predict(X), where.inside, unfiltered)
         if std is not None:
             out[f"{registry.SURROGATE.name}_std"] = std
-        out.update(self._extended(frame, X, where, (surrogate, out[registry.HYBRID.name]), needed))
+        widening = bounds and bool(np.any(where.region.interval != regions.IN_SUPPORT))
+        out.update(self._extended(frame, X, where, (surrogate, out[registry.HYBRID.name]), needed, widening))
         for name in registry.PEER_NAMES:
             rows = np.flatnonzero(needed.get(name, np.zeros(n, bool)))
             out[name] = np.full(n, np.nan)
@@ -269,22 +283,26 @@ class Predictor:
                 out[name][rows] = at[name]
         return self.intervals.with_stack(out, where.region)
 
-    def _extended(self, frame, X, where: answer.Where, surrogate_hybrid, needed: dict) -> dict[str, np.ndarray]:
-        """The extended model and the (guarded) extended hybrid, where needed or a row lies out of the support
-        (their disagreement with the paper's hybrid widens its interval), and the table has their causes' columns;
-        out of the support, where the guard let the paper's hybrid stand, that hybrid."""
+    def _extended(
+        self, frame, X, where: answer.Where, surrogate_hybrid, needed: dict, widening: bool = False
+    ) -> dict[str, np.ndarray]:
+        """The extended model and the (guarded) extended hybrid, where needed or ``widening`` (rows out of the
+        support, whose interval their disagreement with the paper's hybrid widens), and the table has their causes'
+        columns; out of the support, where the guard let the paper's hybrid stand, that hybrid."""
         surrogate, hybrid = surrogate_hybrid
         wanted = any(needed.get(m.name, np.zeros(1, bool)).any() for m in (registry.EXTENDED, registry.EXTENDED_HYBRID))
-        # out of the support the corrections' disagreement widens the interval (intervals.disagreement)
-        wanted |= bool(np.any(where.region.interval != regions.IN_SUPPORT))
-        lacking = sorted(self.extension.extension.columns - set(frame.columns))
+        lacking = self.lacking(frame.columns)
         if lacking and wanted:
             log.warning("no column %s in the table: the extension (whose causes need it) gives no prediction", lacking)
-        if lacking or not wanted:
+        if lacking or not (wanted or widening):
             extension, remainder = np.full(len(X), np.nan), np.full(len(X), np.nan)
         else:
             extension, remainder = self.extension.extension.predict(frame), self.extension.remainder.predict(X)
         return compose.extended(surrogate, extension, remainder, hybrid, where.inside, self.extension.out_of_support)
+
+    def lacking(self, columns) -> list[str]:
+        """The extension's causes that are not among ``columns``: without them it gives no prediction."""
+        return sorted(self.extension.extension.columns - set(columns))
 
     def read(self, path, fmt: CsvFormat | None = None) -> pd.DataFrame:
         """A what-if CSV read and checked as the workflow reads its inputs."""

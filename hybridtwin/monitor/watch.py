@@ -166,8 +166,9 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     target = predictor.spec["target"]
     X = predictor.checked(batch, "the batch")
     where = predictor.where(X)
-    values = predictor.values(batch, X, where, False, available_cores())
-    answers = intervals.recommended_prediction(predictor.intervals, values, where.region, predictor.level)
+    # the residual's chart reads the recommended prediction alone, not its interval
+    values = predictor.values(batch, X, where, False, available_cores(), bounds=False)
+    answers = intervals.recommended_prediction(predictor.intervals, values, where.region, predictor.level, bounds=False)
     measured = batch[target].to_numpy(float)
     residual = measured - answers[RECOMMENDED_COLUMN].to_numpy(float)
     expected = chart.expected_error(predictor.intervals, answers["recommended_model"], where.region.interval)
