@@ -72,12 +72,15 @@ def coverage_table(
     truth=None,
     seed: int = 0,
     usable=None,
+    fitted: RegionIntervals | None = None,
 ) -> pd.DataFrame:
     """prediction_intervals.csv: on the test rows, per region and model, coverage, mean width and RMSE.
 
     Two calibrations are compared: by region (what the predictor uses) and one pool of all
     calibration rows. ``recommended`` is the model the predictor picks in each row's region.
-    A model is scored on the test rows where it has an honest prediction (``n_test``).
+    A model is scored on the test rows where it has an honest prediction (``n_test``). ``fitted``: the intervals by
+    region, where fitted already (the same calibration, fitted once: its ranking and stack read every calibration
+    row).
     """
     measured = np.asarray(measured, float)
     by_region = as_regions(region)
@@ -85,7 +88,8 @@ def coverage_table(
     pooled = Regions.same(same_word(len(region), "all"))
     methods = {}
     for method, labels, method_edges in (("by_region", by_region, edges), ("pooled", pooled, [])):
-        fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
+        if method != "by_region" or fitted is None:
+            fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
         methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
     scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed, usable)
     test = ~calibration
@@ -224,7 +228,7 @@ def calibrate(
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
     # a second pass over the log's distances: the verdicts need the reach, which needs every calibration row
     usable = trust_by_parts(inputs, doe_range, inside, distance, reach) != EXTRAPOLATION
-    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable)
+    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable, fitted)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])
