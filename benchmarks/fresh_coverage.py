@@ -48,11 +48,28 @@ N_FRESH = 8000
 SIZES = (3000, 8000, 20000, 70000)
 
 
-def plant(index: int, seed: int):
+STRUCTURE_KINDS = ("linear", "coil", "step", "product", "sigmoid", "none")
+
+
+def plant(index: int, seed: int, generator: str = "families"):
     """The index-th plant: (name, DoE, log, fresh parts, inputs, target, its simulator), sizes cycling through
-    SIZES."""
+    SIZES; ``generator`` 'families': the demo's and the plant families' generators, 'structures': the randomized
+    structures generator (other names, inputs, rhythms and simulators)."""
     n = SIZES[index % len(SIZES)]
     draw = seed * 100 + index
+    if generator == "structures":
+        kind = STRUCTURE_KINDS[index % len(STRUCTURE_KINDS)]
+        case = structures.draw_structure_plant(kind, draw, n + N_FRESH)
+        production, name = case.production, f"{kind} seed {draw}"
+        return (
+            name,
+            case.doe,
+            production.iloc[:n],
+            production.iloc[n:].reset_index(drop=True),
+            list(case.inputs),
+            case.target,
+            plant_simulator(case),
+        )
     if index % 3 == 0:
         frames = demo.generate(replace(demo.DemoPlant(), seed=draw, n_production=n + N_FRESH))
         production, doe, simulate = frames["production"], frames["doe"], demo.simulator
@@ -216,10 +233,11 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, help="keep each plant's run and its fresh parts in this folder")
     parser.add_argument("--replay", type=Path, help="only fit the intervals of a --keep folder's runs again")
     parser.add_argument("--name", default="fresh_coverage", help="the results' file name")
+    parser.add_argument("--generator", choices=("families", "structures"), default="families")
     args = parser.parse_args()
     rows = replay(args.replay) if args.replay else []
     for index in range(0 if args.replay else args.plants):
-        name, doe, log, fresh, inputs, target, simulate = plant(index, args.seed)
+        name, doe, log, fresh, inputs, target, simulate = plant(index, args.seed, args.generator)
         with _plant_folder(args.keep, index) as scratch:
             matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index), simulate)
             models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
