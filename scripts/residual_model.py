@@ -15,7 +15,9 @@ def main(snakemake):
     spec, training = spec_of(snakemake), snakemake.wildcards.training
     inputs, residuals = pipeline.read_training(snakemake.input.production, snakemake.input.residuals, spec, training)
     params = files.read_json(snakemake.input.best)["params"]
-    cv = pipeline.residual_cv(inputs, residuals, spec, training, params)
+    outside = pipeline.outside_inputs(snakemake.input.production, residuals, spec, training)
+    cv = pipeline.residual_cv(inputs, residuals, spec, training, params, outside)
+    del outside
     files.write_csv(cv.per_fold, snakemake.output.folds)
     files.write_table(cv.oof, snakemake.output.oof)  # each row's fold: the extension is scored on the same split
     files.write_csv(cv.table, snakemake.output.table)
