@@ -58,22 +58,6 @@ def periods(n_rows: int, n_folds: int) -> np.ndarray:
     return np.arange(n_rows) * n_folds // n_rows
 
 
-def row_periods(in_support, n_folds: int) -> np.ndarray:
-    """Each log row's period (0..K-1): an in-support part's among the in-support parts in time order
-    (:func:`periods`, the hybrid's CV), any other row's that of the in-support part before it
-    (:func:`folds_around`). An out-of-support part is then predicted, for calibration, by the models that never
-    saw its period: the coil or campaign it shares with the in-support parts around it."""
-    inside = np.flatnonzero(np.asarray(in_support, bool))
-    return folds_around(inside, periods(len(inside), n_folds), np.arange(len(in_support)))
-
-
-def folds_around(trained_rows, fold, others) -> np.ndarray:
-    """The fold of each of ``others`` (log positions): that of the last of ``trained_rows`` (log positions in
-    order, ``fold`` each one's) at or before it, the first one's before the first."""
-    before = np.searchsorted(np.asarray(trained_rows), np.asarray(others), side="right") - 1
-    return np.asarray(fold)[np.maximum(before, 0)]
-
-
 def out_of_period(refit_without, X: np.ndarray, period: np.ndarray, training_period: np.ndarray) -> np.ndarray:
     """Each row of ``X`` predicted by a model that never saw its period: ``refit_without(keep)`` is the model
     refitted (its hyperparameters held) on the training rows where ``keep``, as a function of rows;
@@ -93,15 +77,6 @@ def in_support_out_of_period(model, inside, training_rows: np.ndarray, n_folds: 
     rows = np.arange(len(inside)) if rows is None else np.asarray(rows)
     asked = rows_of(inside, rows)
     return model.out_of_period(asked, period[rows], period[np.asarray(training_rows)])
-
-
-def log_out_of_period(model, X, rows, in_support, training_rows, n_folds: int) -> np.ndarray:
-    """``model.out_of_period`` at the log's ``rows`` (``X``: their inputs), in support or not: each predicted by
-    the model refitted without the training parts of its period (:func:`row_periods`); ``training_rows``: the
-    model's training parts, positions among the in-support parts."""
-    period = row_periods(in_support, n_folds)
-    trained_on = np.flatnonzero(np.asarray(in_support, bool))[np.asarray(training_rows)]
-    return model.out_of_period(X, period[np.asarray(rows)], period[trained_on])
 
 
 def ids_of(splits, n_rows: int) -> np.ndarray:
@@ -129,24 +104,20 @@ def splits_of(fold_ids) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def written_splits(written: pd.DataFrame, rows) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The split written beside out-of-fold predictions (columns ``row``, ``fold``, and ``trained``: False on the
-    rows the model never trains on, predicted by their period's fold), for ``rows`` in that order; a table
-    written for other rows is an error, not a silently different split."""
-    if "trained" in written:
-        written = written[written["trained"].to_numpy(bool)]
+    """The split written beside out-of-fold predictions (columns ``row``, ``fold``), for ``rows`` in that
+    order; a table written for other rows is an error, not a silently different split."""
     if not np.array_equal(written["row"].to_numpy(int), np.asarray(rows, int)):
         raise ValueError("the written folds belong to other rows than these: rerun the residual CV")
     return splits_of(written["fold"])
 
 
 def cross_validate(
-    estimator, X, y, n_folds: int, seed: int, after_fold=None, splits=None, with_model=None
+    estimator, X, y, n_folds: int, seed: int, after_fold=None, splits=None
 ) -> tuple[pd.DataFrame, np.ndarray]:
     """Per-fold metrics and out-of-fold predictions. Each fold fits a fresh clone on its train rows only.
 
     ``splits``: the (train, test) pairs (default: shuffled K-fold of ``seed``); ``after_fold(rows)``, if given,
-    sees the per-fold metrics so far after each fold (to stop early); ``with_model(fold, model)`` (fold 0-based)
-    gets each fold's model, to predict rows that are not the estimator's (its period's out-of-support parts).
+    sees the per-fold metrics so far after each fold (to stop early).
     """
     from sklearn.base import clone
 
@@ -159,8 +130,6 @@ def cross_validate(
         fitted_on = train if fit_rows is None else train[fit_rows(len(train))]
         model = clone(estimator).fit(X[fitted_on], y[fitted_on])
         oof[test] = model.predict(X[test])
-        if with_model is not None:
-            with_model(fold - 1, model)
         n_train = getattr(model, "n_fitted_", len(train))  # a model that fits on a sample of its rows says so
         rows.append(
             {"fold": fold, "n_train": n_train, "n_test": len(test), **scores(y[test], oof[test], names=CV_METRICS)}

@@ -113,14 +113,6 @@ def training_inputs(production: pd.DataFrame, residual_table: pd.DataFrame, spec
     return production[list(spec.inputs)].to_numpy(float)[rows]
 
 
-def outside_inputs(production_path, residual_table: pd.DataFrame, spec: Spec, training: str):
-    """The out-of-support parts' inputs as one matrix, which the filtered model's CV predicts out of period (None
-    for the unfiltered model, which trains on them)."""
-    if training != "filtered":
-        return None
-    return read_matrix(production_path, spec.inputs, np.flatnonzero(~in_support(residual_table)))
-
-
 def residual_model(inputs, residual_table, spec: Spec, training: str, params: dict):
     """Step 6: the residual model retrained on all its training rows ('filtered': in support; 'unfiltered': all);
     ``inputs``: those rows' inputs (:func:`training_inputs`)."""
@@ -138,17 +130,13 @@ class ResidualCV:
     table: pd.DataFrame  # Table 3's row (the filtered model)
 
 
-def residual_cv(inputs, residual_table, spec: Spec, training: str, params: dict, outside=None) -> ResidualCV:
+def residual_cv(inputs, residual_table, spec: Spec, training: str, params: dict) -> ResidualCV:
     """Step 5b: the residual model with the tuned hyperparameters, cross-validated.
 
     Table 3 is the paper's shuffled K-fold CV, on a split other than the tuning's (so the score is not the winning
     trial's own). The out-of-fold predictions every later step scores on are out of period: K folds of
     consecutive parts, so that a part is predicted by a model that never saw its campaign, its coil or its hour
     (the errors the next production period meets). The model trained on every part has only the latter.
-
-    ``outside``: the out-of-support parts' inputs (:func:`outside_inputs`; the filtered model), each predicted by
-    the model of its period's fold (:func:`~hybridtwin.crossval.row_periods`): the final model never trained on
-    them, but on the in-support parts of their coil and their campaign, which the next period does not share.
     """
     from hybridtwin.crossval import capped_note, cross_validate, ids_of, period_folds
     from hybridtwin.paper.residual import evaluation_seed, make_model
@@ -156,42 +144,15 @@ def residual_cv(inputs, residual_table, spec: Spec, training: str, params: dict,
     rows, X, y = _training(inputs, residual_table, training)
     model = make_model(params, spec.seed, spec.n_jobs, spec.max_train_rows)
     periods = period_folds(len(y), spec.folds)
-    others = _OutOfPeriod(residual_table, spec.folds, outside)
-    per_period, oof = cross_validate(model, X, y, spec.folds, spec.seed, splits=periods, with_model=others.predict)
+    per_period, oof = cross_validate(model, X, y, spec.folds, spec.seed, splits=periods)
     if training == "filtered":
         per_fold, shuffled = cross_validate(model, X, y, spec.folds, evaluation_seed(spec.seed))
         split = f"{spec.folds}-fold CV on a split other than the tuning's"
     else:
         per_fold, shuffled, split = per_period, oof, f"{spec.folds} folds of consecutive parts (periods)"
     table = _cv_summary(per_fold, y, shuffled, training, split + capped_note(spec.max_train_rows, len(y)))
-    written = {
-        "row": np.concatenate([rows, others.rows]),
-        "pred_residual_oof": np.concatenate([oof, others.predicted]),
-        "fold": np.concatenate([ids_of(periods, len(y)), others.period + 1]),
-        "trained": np.concatenate([np.ones(len(rows), bool), np.zeros(len(others.rows), bool)]),
-    }
-    return ResidualCV(per_fold, table_of(written), table)
-
-
-class _OutOfPeriod:
-    """The out-of-support parts (none without ``outside``, their inputs), their periods, and their predictions
-    filled in by each fold's model (``predict(fold, model)``, :func:`~hybridtwin.crossval.cross_validate`)."""
-
-    def __init__(self, residual_table: pd.DataFrame, n_folds: int, outside):
-        from hybridtwin.crossval import row_periods
-
-        inside = in_support(residual_table)
-        self.rows = np.flatnonzero(~inside) if outside is not None else np.array([], int)
-        if len(self.rows) != (0 if outside is None else len(outside)):
-            raise ValueError(f"{len(outside)} rows of inputs for {len(self.rows)} out-of-support parts")
-        self.period = row_periods(inside, n_folds)[self.rows] if len(self.rows) else np.array([], int)
-        self.predicted = np.full(len(self.rows), np.nan)
-        self.outside = outside
-
-    def predict(self, fold: int, model) -> None:
-        mine = self.period == fold
-        if mine.any():
-            self.predicted[mine] = model.predict(self.outside[mine])
+    fold = ids_of(periods, len(y))
+    return ResidualCV(per_fold, table_of({"row": rows, "pred_residual_oof": oof, "fold": fold}), table)
 
 
 def _cv_summary(per_fold, y, oof, training: str, split: str) -> pd.DataFrame:
@@ -258,18 +219,17 @@ def extension_fitting(spec: Spec, params: dict):
     return Fitting(tuple(spec.inputs), make_xgb, spec.max_train_rows, spec.seed)
 
 
-# what the extension reads of the hybrid's predictions (a sixth of that table: 160 MB of 1 GB on ten million parts)
-HYBRID_FOR_EXTENSION = [registry.HYBRID.oof_column, registry.HYBRID.column]
+# what the extension reads of the hybrid's predictions (a twelfth of that table: 80 MB of 1 GB on ten million parts)
+HYBRID_FOR_EXTENSION = [registry.HYBRID.oof_column]
 
 
 def extension_parts(production, residual_table, hybrid_table):
-    """What the extension learns from: the parts, their residuals and the paper's hybrid (out of period, and the
-    final model's where ``hybrid_table`` has it; it needs only the columns :data:`HYBRID_FOR_EXTENSION`)."""
+    """What the extension learns from: the parts, their residuals and the paper's hybrid (out-of-fold in the
+    support, the final model outside; ``hybrid_table`` needs only the columns :data:`HYBRID_FOR_EXTENSION`)."""
     from hybridtwin.diagnosis.extension import Parts
 
-    honest, final = HYBRID_FOR_EXTENSION
-    final_hybrid = hybrid_table[final].to_numpy(float) if final in hybrid_table else None
-    return Parts(production, residual_table, hybrid_table[honest].to_numpy(float), final_hybrid)
+    (hybrid_column,) = HYBRID_FOR_EXTENSION
+    return Parts(production, residual_table, hybrid_table[hybrid_column].to_numpy(float))
 
 
 def extend(parts, terms, fitting, splits, choosing, matched=None):

@@ -15,9 +15,7 @@ def main(snakemake):
     spec, training = spec_of(snakemake), snakemake.wildcards.training
     inputs, residuals = pipeline.read_training(snakemake.input.production, snakemake.input.residuals, spec, training)
     params = files.read_json(snakemake.input.best)["params"]
-    outside = pipeline.outside_inputs(snakemake.input.production, residuals, spec, training)
-    cv = pipeline.residual_cv(inputs, residuals, spec, training, params, outside)
-    del outside
+    cv = pipeline.residual_cv(inputs, residuals, spec, training, params)
     files.write_csv(cv.per_fold, snakemake.output.folds)
     files.write_table(cv.oof, snakemake.output.oof)  # each row's fold: the extension is scored on the same split
     files.write_csv(cv.table, snakemake.output.table)

@@ -13,8 +13,6 @@ from hybridtwin.crossval import (
     cv_table,
     fold_ids,
     folds,
-    folds_around,
-    row_periods,
     splice_out_of_fold,
     splits_of,
     training_subset,
@@ -49,41 +47,6 @@ def test_written_fold_ids_give_back_the_very_split():
     assert ids.dtype.kind == "i" and sorted(set(ids.tolist())) == [1, 2, 3, 4, 5]  # written as 1..5, not 1.0
     with pytest.raises(ValueError, match="the written folds belong to other rows than these: rerun the residual CV"):
         written_splits(written, rows + 1)
-
-
-def test_a_part_outside_the_support_takes_the_period_of_the_in_support_part_before_it():
-    inside = np.array([0, 1, 1, 0, 1, 1, 0, 0, 1, 1, 0], bool)  # six in-support parts: periods 0, 0, 1, 1, 2, 2
-    np.testing.assert_array_equal(row_periods(inside, 3), [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2])
-    np.testing.assert_array_equal(folds_around([2, 5, 9], [4, 7, 1], [0, 2, 3, 6, 9, 12]), [4, 4, 4, 7, 1, 1])
-    # a written table's rows that its model never trains on (out of the support) are not part of the split
-    written = pd.DataFrame({"row": [1, 2, 0, 3], "fold": [1, 2, 1, 2], "trained": [True, True, False, False]})
-    (first, second) = written_splits(written, [1, 2])
-    assert first[1].tolist() == [0] and second[1].tolist() == [1]
-
-
-def test_the_residual_cv_predicts_each_part_outside_the_support_by_its_period_s_model():
-    from hybridtwin import pipeline
-
-    rng = np.random.default_rng(3)
-    n = 120
-    inside = np.arange(n) % 4 != 1
-    residual_table = pd.DataFrame({"residual_approx": rng.normal(0, 1, n), "in_support": inside})
-    X = rng.normal(0, 1, (n, 2))
-    params = {"n_estimators": 5, "max_depth": 2, "learning_rate": 0.3}
-    spec = pipeline.Spec(("a", "b"), seed=1, folds=3)
-    cv = pipeline.residual_cv(X[inside], residual_table, spec, "filtered", params, X[~inside])
-    written = cv.oof.set_index("row").sort_index()
-    assert written.index.tolist() == list(range(n)) and (written["trained"] == inside).all()
-    period = np.repeat([0, 1, 2], 30)  # ninety in-support parts; row 1 follows row 0, row 121 row 120 ...
-    np.testing.assert_array_equal(written["fold"], row_periods(inside, 3) + 1)
-    for k in range(3):
-        train = np.flatnonzero(inside)[period != k]
-        model = residual.make_model(params, 1, 1).fit(X[train], residual_table["residual_approx"][train])
-        mine = ~inside & (row_periods(inside, 3) == k)
-        assert mine.sum() == 10
-        np.testing.assert_allclose(written["pred_residual_oof"][mine], model.predict(X[mine]), rtol=1e-6)
-    with pytest.raises(ValueError, match="3 rows of inputs for 30 out-of-support parts"):
-        pipeline.residual_cv(X[inside], residual_table, spec, "filtered", params, X[:3])
 
 
 def test_folds_seeded():

@@ -16,8 +16,8 @@ from hybridtwin.diagnosis.extension import (
     Parts,
     evaluate,
     gain_table,
+    guard,
     keeps_out_of_support,
-    stands_outside,
 )
 from hybridtwin.metrics import block_gains
 from hybridtwin.models.compose import guarded
@@ -117,7 +117,7 @@ def test_gain_table_counts_each_region_and_says_what_it_scored():
     row = table.iloc[0]
     assert (row["n_in_support"], row["n_out_of_support"], row["n_matched"]) == (1, 2, 2)
     assert "rmse_truth_out_of_support" not in table.columns
-    says(row["evaluated_on"], "measured", "in support out of period", "out of support out of period", "matched cases")
+    says(row["evaluated_on"], "measured", "in support out of period", "never on these rows", "matched cases")
     without_noise = gain_table(
         np.zeros(3), {"m": np.ones(3)}, inside, np.zeros(2), {"m": np.zeros(2)}, truth=np.zeros(3)
     )
@@ -178,10 +178,8 @@ def test_evaluation_fits_on_in_support_rows_and_scores_them_out_of_fold():
     np.testing.assert_allclose(result.production["pred_extended"][:8], np.full(8, 11.0))
     np.testing.assert_allclose(result.production["pred_extended_hybrid"], np.full(108, 16.0))
     # fold 1 trains on rows 0, 2, 3 (offset 0, leftover 0) and predicts rows 5, 6, 7;
-    # fold 2 trains on rows 5, 6, 7 (offset 2, leftover 4) and predicts rows 0, 2, 3, and rows 1 and 4 outside,
-    # which follow rows 0 and 3 in time; fold 1 the parts outside after row 7
-    np.testing.assert_allclose(result.production["pred_extended_oof"][:8], [12, 12, 12, 12, 12, 10, 10, 10])
-    np.testing.assert_allclose(result.production["pred_extended_oof"][8:], 10.0)
+    # fold 2 trains on rows 5, 6, 7 (offset 2, leftover 4) and predicts rows 0, 2, 3; rows 1, 4: final models
+    np.testing.assert_allclose(result.production["pred_extended_oof"][:8], [12, 11, 12, 12, 11, 10, 10, 10])
     np.testing.assert_allclose(result.production["pred_extended_hybrid_oof"][:8], [16, 16, 16, 16, 16, 10, 10, 10])
     np.testing.assert_allclose(result.scored["extended"], result.production["pred_extended_oof"])
     np.testing.assert_allclose(result.scored["extended_hybrid"], result.production["pred_extended_hybrid_oof"])
@@ -271,8 +269,10 @@ def test_the_guard_lengthens_blocks_whose_gains_are_correlated():
 def test_in_support_parts_never_choose():
     measured, extended_hybrid, hybrid = guard_case(*[1.0] * 10)  # every part favours the extended hybrid
     inside = np.arange(200) < 190
-    assert not stands_outside(measured, extended_hybrid, hybrid, inside, np.ones(200, bool))  # ten outside: p = 0.25
-    assert stands_outside(measured, extended_hybrid, hybrid, np.zeros(200, bool), np.ones(200, bool))  # all outside
+    guarded_values, stands = guard(measured, extended_hybrid, hybrid, inside, np.ones(200, bool))
+    assert not stands  # ten parts outside: two blocks of gains, p = 0.25 at best
+    np.testing.assert_allclose(guarded_values, np.where(inside, 1.0, 4.0))
+    assert guard(measured, extended_hybrid, hybrid, np.zeros(200, bool), np.ones(200, bool))[1]  # all outside
 
 
 def test_the_guard_reads_the_choosing_parts_only():
@@ -313,5 +313,6 @@ def test_the_guard_reads_zero_one_columns_as_flags():
     later = (np.arange(200) >= 20).astype(int)
     assert keeps_out_of_support(measured, extended_hybrid, hybrid, later)
     inside = (np.arange(200) < 20).astype(int)
-    assert stands_outside(measured, extended_hybrid, hybrid, inside, np.ones(200, int))
+    values, stands = guard(measured, extended_hybrid, hybrid, inside, np.ones(200, int))
+    assert stands
     np.testing.assert_allclose(guarded(extended_hybrid, hybrid, inside, False), np.where(inside == 1, 9.0, 4.0))

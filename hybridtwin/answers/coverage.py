@@ -169,8 +169,7 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
     return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
-        "model that predicted a part saw its period) and outside it (each part by the models of its period's "
-        "fold); rows beyond "
+        "model that predicted a part saw its period), models never trained on the row outside it; rows beyond "
         "every calibrated part (trust: extrapolation) get no interval and are not scored; coverage of the measured "
         "value, with its 95% Clopper-Pearson interval; "
         "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended)"

@@ -6,8 +6,8 @@ regions: in support, and out of support in bins of the kNN distance to the DoE.
 In each region:
 
 - the **recommended model** is the one with the lowest RMSE on the calibration
-  rows (honest predictions only: out of period, in support and outside it:
-  :func:`~hybridtwin.crossval.row_periods`), all models compared on the same rows;
+  rows (honest predictions only: out-of-fold inside the support, models never
+  trained on the row outside), all models compared on the same rows;
 - its **interval** is split-conformal (Mondrian: by region) on the calibration rows' absolute errors,
   with the finite-sample, training-conditional rule of :func:`conformal_rank`: the interval holds at least
   its level with probability ``1 - DELTA`` over the calibration parts, however few a region has.

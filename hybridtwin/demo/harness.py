@@ -130,8 +130,7 @@ class Run:
     @cached_property
     def residual_cv(self) -> pipeline.ResidualCV:
         inputs = pipeline.training_inputs(self.production, self.residuals, self.spec, "filtered")
-        outside = self.inputs[~self.inside]  # predicted out of period, as rule residual_model does
-        return pipeline.residual_cv(inputs, self.residuals, self.spec, "filtered", self.params, outside)
+        return pipeline.residual_cv(inputs, self.residuals, self.spec, "filtered", self.params)
 
     @cached_property
     def hybrid_predictions(self) -> pd.DataFrame:

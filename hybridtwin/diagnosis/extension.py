@@ -4,8 +4,8 @@ The causes and their forms come from the diagnosis; their few parameters are
 refitted here on the in-support rows (by backfitting when there are several).
 The extended hybrid adds an XGBoost model of what the extension leaves over. Out of the support it
 stands only where it beat the paper's hybrid beyond doubt on the measured parts of the choosing blocks
-(:func:`keeps_out_of_support`, on out-of-period predictions): a wrong cause, or trees that carry less of the
-surrogate's error once a term took the effect, must never make the paper's method worse where it matters most.
+(:func:`guard`): a wrong cause, or trees that carry less of the surrogate's error
+once a term took the effect, must never make the paper's method worse where it matters most.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 
-from hybridtwin.crossval import folds_around, ids_of, training_subset
+from hybridtwin.crossval import splice_out_of_fold, training_subset
 from hybridtwin.diagnosis import forms
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.io.files import in_support, table_of
@@ -151,11 +151,11 @@ def keeps_out_of_support(measured, extended_hybrid, hybrid, choosing) -> bool:
     )
 
 
-def stands_outside(measured, extended_hybrid, hybrid, in_support, choosing) -> bool:
-    """The guard's choice on the out-of-support ``choosing`` parts (:func:`keeps_out_of_support`): in-support
-    parts never choose."""
-    outside = np.asarray(choosing, bool) & ~np.asarray(in_support, bool)
-    return keeps_out_of_support(measured, extended_hybrid, hybrid, outside)
+def guard(measured, extended_hybrid, hybrid, in_support, choosing) -> tuple[np.ndarray, bool]:
+    """The extended hybrid after the guard's choice on the out-of-support ``choosing`` rows, and that choice."""
+    inside = np.asarray(in_support, bool)
+    stands = keeps_out_of_support(measured, extended_hybrid, hybrid, np.asarray(choosing, bool) & ~inside)
+    return compose.guarded(extended_hybrid, hybrid, inside, stands), stands
 
 
 @dataclass(frozen=True)
@@ -174,19 +174,13 @@ class Parts:
     """The production parts the extension learns from and is judged on, in row order.
 
     ``production``: the inputs and the causes' columns; ``residuals``: measured, residual_approx,
-    pred_surrogate, in_support; ``hybrid``: the paper's hybrid as it is scored (out of period: out of fold in the
-    support, outside it the model of the part's period), which the guard compares with; ``final_hybrid``: the
-    final model's, which the extended hybrid falls back on out of the support (None: ``hybrid``).
+    pred_surrogate, in_support; ``hybrid``: the paper's hybrid (out of the support the final model's value,
+    which the guard compares with).
     """
 
     production: pd.DataFrame
     residuals: pd.DataFrame
     hybrid: np.ndarray
-    final_hybrid: np.ndarray | None = None
-
-    @property
-    def fallback(self) -> np.ndarray:
-        return self.hybrid if self.final_hybrid is None else self.final_hybrid
 
     @property
     def inside(self) -> np.ndarray:
@@ -214,41 +208,31 @@ def fit_models(frame: pd.DataFrame, residual: np.ndarray, terms, fitting: Fittin
     return Models(extension, remainder)
 
 
-def cross_validated(frame: pd.DataFrame, residual: np.ndarray, terms, fitting: Fitting, splits, rows, others=None):
-    """Out-of-fold residual corrections of the extension and the extended hybrid (the extension plus the
-    remainder), per part of ``frame`` (NaN where not asked): at ``rows`` (positions in ``frame`` and ``residual``,
-    which ``splits`` index into; a fold's rows are taken as it needs them) and at ``others`` (positions; the
-    out-of-support parts), each predicted by the fold of the part at ``rows`` before it (:func:`folds_around`)."""
-    extended = np.full(len(frame), np.nan)
-    extended_hybrid = np.full(len(frame), np.nan)
-    others = np.array([], int) if others is None else np.asarray(others)
-    fold_of = folds_around(rows, ids_of(splits, len(rows)) - 1, others) if len(others) else others
-    for fold, (train, test) in enumerate(splits):
+def cross_validated(frame: pd.DataFrame, residual: np.ndarray, terms, fitting: Fitting, splits, rows):
+    """Out-of-fold residual corrections of the extension and the extended hybrid on ``rows`` (positions in
+    ``frame`` and ``residual``, which ``splits`` index into): a fold's rows are taken as it needs them."""
+    extended = np.empty(len(rows))
+    extended_hybrid = np.empty(len(rows))
+    for train, test in splits:
         models = fit_models(frame, residual, terms, fitting, rows[train])
-        asked = np.concatenate([rows[test], others[fold_of == fold]])
-        held = frame.iloc[asked]
-        extended[asked] = models.extension.predict(held)
-        rest = models.remainder.predict(held[list(fitting.inputs)].to_numpy(float))
-        extended_hybrid[asked] = extended[asked] + rest
+        held = frame.iloc[rows[test]]
+        extended[test] = models.extension.predict(held)
+        extended_hybrid[test] = extended[test] + models.remainder.predict(held[list(fitting.inputs)].to_numpy(float))
     return extended, extended_hybrid
 
 
-def fit_guarded(parts: Parts, terms, fitting: Fitting, choosing=None, judged=None):
+def fit_guarded(parts: Parts, terms, fitting: Fitting, choosing=None) -> tuple[Models, dict[str, np.ndarray]]:
     """The extension and the extended hybrid fitted on the in-support parts, their predictions for every part,
     and the guard's choice on the out-of-support ``choosing`` parts (None: all) of whether the extended hybrid
-    stands there (:func:`keeps_out_of_support`), judged on ``judged`` (the extended hybrid's out-of-period
-    predictions, against ``parts.hybrid``'s) or, without it, on the final models' (a fit with no folds)."""
+    stands there (:func:`keeps_out_of_support`)."""
     rows = np.flatnonzero(parts.inside)
     models = fit_models(parts.production, parts.residual, terms, fitting, rows)
     rest = by_parts(models.remainder.predict, parts.production, fitting.inputs)
     terms_and_rest = (models.extension.predict(parts.production), rest)
-    final = compose.extended(parts.surrogate, *terms_and_rest, parts.fallback, parts.inside, True)
+    final = compose.extended(parts.surrogate, *terms_and_rest, parts.hybrid, parts.inside, True)
     choosing = np.ones(len(parts.inside), bool) if choosing is None else choosing
-    candidate = final[EXTENDED_HYBRID.name] if judged is None else judged
-    measured = parts.residuals["measured"]
-    models.out_of_support = stands_outside(measured, candidate, parts.hybrid, parts.inside, choosing)
-    final[EXTENDED_HYBRID.name] = compose.guarded(
-        final[EXTENDED_HYBRID.name], parts.fallback, parts.inside, models.out_of_support
+    final[EXTENDED_HYBRID.name], models.out_of_support = guard(
+        parts.residuals["measured"], final[EXTENDED_HYBRID.name], parts.hybrid, parts.inside, choosing
     )
     return models, final
 
@@ -262,8 +246,8 @@ def predict(models: Models, frame: pd.DataFrame, X: np.ndarray, surrogate, hybri
 
 @dataclass
 class Evaluation:
-    """The fitted extension and its predictions: final models everywhere and, for scoring, out-of-period
-    values of every part (``scored``; the ``*_oof`` columns of ``production``), plus the matched cases."""
+    """The fitted extension and its predictions: final models everywhere and, for scoring, out-of-fold
+    values on the in-support rows (``scored``; the ``*_oof`` columns of ``production``), plus the matched cases."""
 
     models: Models
     production: pd.DataFrame
@@ -273,24 +257,19 @@ class Evaluation:
 
 def evaluate(parts: Parts, terms, fitting: Fitting, splits, choosing=None, matched=None) -> Evaluation:
     """Fit the extension and the extended hybrid on the in-support parts, predict with all four models, and score
-    every part out of period (in support out of fold).
+    the in-support parts out of fold.
 
     ``splits`` are the folds over the in-support rows, the same as the hybrid's out-of-fold predictions;
     ``choosing`` the parts whose measured values decide, out of the support, whether the extended hybrid stands
     there. ``matched``: (matched cases' table, their in_support, surrogate and hybrid predictions).
     """
-    inside, surrogate = parts.inside, parts.surrogate
-    rows, outside = np.flatnonzero(inside), np.flatnonzero(~inside)
-    # every part out of period: in support out of fold, outside by the fold of its period (the final models saw
-    # the in-support parts of its coil and its campaign, which the next period does not share)
-    extended, extended_hybrid = cross_validated(parts.production, parts.residual, terms, fitting, splits, rows, outside)
-    models, final = fit_guarded(parts, terms, fitting, choosing, judged=surrogate + extended_hybrid)
-    scored = {
-        SURROGATE.name: surrogate,
-        HYBRID.name: parts.hybrid,
-        EXTENDED.name: surrogate + extended,
-        EXTENDED_HYBRID.name: compose.guarded(surrogate + extended_hybrid, parts.hybrid, inside, models.out_of_support),
-    }
+    models, final = fit_guarded(parts, terms, fitting, choosing)
+    rows = np.flatnonzero(parts.inside)
+    surrogate = parts.surrogate
+    oof = cross_validated(parts.production, parts.residual, terms, fitting, splits, rows)
+    scored = {SURROGATE.name: surrogate, HYBRID.name: parts.hybrid}
+    for model, values in zip((EXTENDED, EXTENDED_HYBRID), oof):
+        scored[model.name] = splice_out_of_fold(final[model.name], rows, surrogate[rows] + values)
     production = table_of(
         {
             **{model.column: final[model.name] for model in (EXTENDED, EXTENDED_HYBRID)},
@@ -355,7 +334,7 @@ def gain_table(
     table["evaluated_on"] = (
         "measured production values: in support out of period (K folds of consecutive parts, the hybrid's own; "
         "the causes and forms were chosen on all in-support rows, only their parameters refitted per fold), out "
-        "of support out of period too (each part by the models fitted without the in-support parts of its period)"
+        "of support with models fitted on the in-support rows (never on these rows)"
         + (
             ""
             if test is None

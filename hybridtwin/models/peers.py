@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from hybridtwin.crossval import log_out_of_period, training_subset
+from hybridtwin.crossval import in_support_out_of_period, training_subset
 from hybridtwin.io.files import in_support, table_of
 from hybridtwin.models import registry
 from hybridtwin.models.batches import chunks
@@ -67,9 +67,8 @@ def fit_peer(
     n_folds: int,
 ) -> PeerFit:
     """Fit one peer on the DoE and the in-support parts; predict every production row (a seeded sample of
-    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on those rows and the parts it trained
-    on, out of period: ``n_folds`` periods of consecutive in-support parts (an out-of-support part takes the
-    period of the in-support parts around it, :func:`~hybridtwin.crossval.row_periods`), each predicted by the peer
+    ``settings["max_predicted"]`` rows on a larger log, NaN elsewhere) and, on those rows in support and the parts
+    it trained on, out of period: ``n_folds`` periods of consecutive in-support parts, each predicted by the peer
     refitted without its period's training parts (its hyperparameters held), as the hybrid is scored.
 
     ``residuals``: measured, pred_surrogate, residual_approx, in_support per production row (the
@@ -88,15 +87,12 @@ def fit_peer(
     predicted = predicted_rows(len(residuals), settings, seed)
     final = np.full(len(residuals), np.nan)
     final[predicted] = as_target(name, model.predict(production.loc[predicted, inputs]), surrogate[predicted])
-    # out of period as the hybrid is scored: each part (in support or not) from the peer refitted without its
-    # period's training parts (the final model has seen its neighbours in time: its campaign, its coil)
-    outside = predicted[~in_support(residuals)[predicted]]
-    asked = np.union1d(inside[np.union1d(np.flatnonzero(np.isfinite(final[inside])), model.training_rows_)], outside)
-    honest = np.full(len(residuals), np.nan)
-    values = log_out_of_period(
-        model, production.loc[asked, inputs], asked, in_support(residuals), model.training_rows_, n_folds
-    )
-    honest[asked] = as_target(name, values, surrogate[asked])
+    # in support, out of period as the hybrid is scored: each part from the peer refitted without its period's
+    # training parts (the final model has seen its neighbours in time: its campaign, its coil)
+    scored = np.union1d(np.flatnonzero(np.isfinite(final[inside])), model.training_rows_)
+    honest = final.copy()
+    values = in_support_out_of_period(model, production.loc[inside, inputs], model.training_rows_, n_folds, scored)
+    honest[inside[scored]] = as_target(name, values, surrogate[inside[scored]])
     return PeerFit(model, table_of({spec.column: final, spec.oof_column: honest}), seconds, len(model.training_rows_))
 
 
