@@ -795,3 +795,96 @@ def test_the_intervals_step_reads_the_answers_columns_then_the_monitors_in_the_f
         files.write_table(log[["a", "b", "y"]], bare)
         got = pipeline.monitor_log(bare, spec, ["b"], pipeline.answers_log(bare, spec, ["b"]))
         assert list(got.columns) == ["a", "b"] and len(got) == 300
+
+
+def test_a_region_whose_interval_fell_short_on_its_test_parts_is_named_with_its_counts():
+    def recommended(region, covered, n, model="recommended", calibration="by_region"):
+        return {"region": region, "model": model, "calibration": calibration, "coverage": covered / n, "n_test": n}
+
+    table = pd.DataFrame(
+        [
+            recommended("out_of_support_4", 32, 66),  # 48%: its 95% interval reaches 61%
+            recommended("out_of_support_1", 59, 66),  # 89.4%: it reaches 95.6%, no shortfall beyond doubt
+            recommended("in_support", 6_230, 7_000),  # 89.0% of many: its 95% interval ends at 89.7%
+            recommended("out_of_support_2", 100, 100),
+            recommended("out_of_support_3", 10, 66, model="hybrid"),  # not the recommended model's
+            recommended("out_of_support_3", 10, 66, calibration="pooled"),
+            recommended("all", 10, 66),
+        ]
+    )
+    assert coverage.short_regions(table, 0.9) == {"out_of_support_4": [32, 66], "in_support": [6230, 7000]}
+    assert coverage.short_regions(table, 0.5) == {}
+
+
+def test_a_short_region_is_chosen_and_calibrated_on_its_test_parts_too_and_no_other_region_moves():
+    # the calibration blocks' errors are small, the test blocks' large (other coils); rows 0, 3, 6, ... are in
+    # support, the others out of it; half of those (the gate's parts beyond a DoE range) choose in support
+    n = 4_000
+    calibration = regions.calibration_rows(n, 20)
+    rng = np.random.default_rng(8)
+    measured = rng.normal(0, 5, n)
+    scale = np.where(calibration, 0.5, 3.0)
+    honest = {model: measured + rng.normal(0, sd, n) * scale for model, sd in (("hybrid", 1.0), ("extended", 1.2))}
+    interval = np.where(np.arange(n) % 3 == 0, "in_support", np.where(np.arange(n) % 3 == 1, "out_of_support_1", "x"))
+    interval = np.where(interval == "x", regions.BEYOND_RANGE, interval).astype(object)
+    region = regions.Regions(
+        np.where(interval == regions.BEYOND_RANGE, "in_support", interval).astype(object), interval
+    )
+    plain = intervals.RegionIntervals.fit(measured, honest, region, calibration, [])
+    short = ~calibration & (interval != "in_support")  # the test parts of the two regions out of the support
+    again = intervals.RegionIntervals.fit(measured, honest, region, calibration, [], also=short)
+    # the support's choice and interval as before; its stack's weights too (the gate's parts never choose)
+    assert again.weights["in_support"] == plain.weights["in_support"]
+    assert again.ranking["in_support"] == plain.ranking["in_support"]
+    for model in plain.calibration:
+        assert again.calibration[model]["in_support"] == plain.calibration[model]["in_support"]
+    # out of the support the test parts choose too: the stack's weights on all its parts
+    choosing = np.flatnonzero((calibration | short) & (interval == "out_of_support_1"))
+    members = stack.stack_members(honest)
+    assert again.weights["out_of_support_1"] == pytest.approx(stack.stack_weights(measured, members, choosing))
+    assert again.weights["out_of_support_1"] != plain.weights["out_of_support_1"]
+    # every interval there and beyond the DoE's range from the errors of all its parts: several times wider
+    final = again.with_stack(honest, region)
+    for name in ("out_of_support_1", regions.BEYOND_RANGE):
+        for model in ("hybrid", "extended", "stack"):
+            rows = (calibration | short) & (interval == name)
+            errors = np.abs(measured - final[model])[rows]
+            if model == "stack":  # cross-fitted where it chose; with the support's weights beyond the DoE's range
+                errors = np.sort(again.calibration["stack"][name])
+                if name == regions.BEYOND_RANGE:
+                    expected = np.abs(measured - final["stack"])[short & (interval == name)]
+                    assert np.isin(np.round(expected, 6), np.round(errors, 6)).all()
+            assert again.half_width(model, name, LEVEL) == pytest.approx(_half_width(errors, LEVEL))
+            assert again.half_width(model, name, LEVEL) > 2 * plain.half_width(model, name, LEVEL)
+
+
+def test_the_intervals_step_recalibrates_a_short_region_on_its_test_parts_and_says_so():
+    table, inputs, truth = _predictions_table()
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": 8}
+    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0, truth=truth)
+    assert not calibrated.intervals.recalibrated and not calibrated.table["recalibrated"].any()
+    # the test blocks of the farthest region measure 5 further off than its calibration blocks
+    n = len(table)
+    test = (np.arange(n) // (n // 8)) % 2 == 1
+    far = (calibrated.region.interval == "out_of_support_3") & test
+    shifted = table.assign(measured=np.where(far, table["measured"] + 5, table["measured"]))
+    again = coverage.calibrate(shifted, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0, truth=truth)
+    rows = again.table.set_index(["region", "model", "calibration"])
+    short = rows.loc[("out_of_support_3", "recommended", "by_region")]
+    assert short["recalibrated"] and short["coverage_high"] < 0.8
+    assert again.intervals.recalibrated == {
+        "out_of_support_3": [round(short["coverage"] * short["n_test"]), short["n_test"]]
+    }
+    assert set(again.table.loc[again.table["recalibrated"], "region"]) == {"out_of_support_3"}
+    model = again.intervals.recommended["out_of_support_3"]
+    for name in ("in_support", "out_of_support_1", "out_of_support_2"):  # the other regions' choice as before
+        assert again.intervals.ranking[name] == calibrated.intervals.ranking[name]
+    # the table is the tested intervals' (on the calibration parts), the same choice and flags
+    tested = again.table.drop(columns="recalibrated")
+    assert tested["recommended"].equals(calibrated.table["recommended"].loc[tested.index])
+    wider = again.intervals.half_width(model, "out_of_support_3", 0.8)
+    assert wider > calibrated.intervals.half_width(model, "out_of_support_3", 0.8) + 2
+    for name in ("in_support", "out_of_support_1", "out_of_support_2"):  # the others as before
+        assert again.intervals.calibration[model][name] == calibrated.intervals.calibration[model][name]
+    stored = intervals.RegionIntervals.from_dict(again.intervals.to_dict())
+    assert stored.recalibrated == again.intervals.recalibrated

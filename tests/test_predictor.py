@@ -319,3 +319,25 @@ def test_base_checks_only_the_row_asked_about(tmp_path, capsys):
     says(capsys.readouterr().err, "base file", "'rm_mpa'", "row 5")
     assert main(["predict", "--models", MODELS, "--base", str(path), "--base-row", "999"]) == 1
     says(capsys.readouterr().err, "no row 999", "400 data row(s)")
+
+
+def test_a_row_of_a_region_recalibrated_on_its_test_parts_says_why(parts):
+    from hybridtwin.answers.intervals import RegionIntervals
+
+    plain = Predictor.load(MODELS).predict(parts, all_models=True)
+    row = plain.index[(plain["trust"] == trust.CALIBRATED) & ~plain["in_support"]][0]
+    region = plain.loc[row, "interval_region"]
+    predictor = Predictor.load(MODELS)
+    stored = predictor.intervals.to_dict()
+    stored["recalibrated"] = {region: [32, 66]}
+    predictor.intervals = RegionIntervals.from_dict(stored)
+    answered = predictor.predict(parts)
+    here = (answered["interval_region"] if "interval_region" in answered else plain["interval_region"]) == region
+    here &= answered["pred_lower"].notna()
+    says(
+        answered.loc[row, "trust_reason"],
+        "calibrated on the log's test parts here too",
+        "covered 32 of 66 of them (48%)",
+    )
+    assert answered.loc[here, "trust_reason"].str.contains("covered 32 of 66").all()
+    assert not answered.loc[~here, "trust_reason"].str.contains("covered 32 of 66").any()

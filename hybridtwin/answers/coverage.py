@@ -124,6 +124,20 @@ def clopper_pearson(covered: int, n: int, confidence: float = 0.95) -> tuple[flo
     return float(low), float(high)
 
 
+def short_regions(table: pd.DataFrame, level: float) -> dict[str, list[int]]:
+    """The regions where the recommended model's interval (by region) covered fewer of the test parts than
+    ``level`` beyond the binomial uncertainty (its 95% Clopper-Pearson interval lies below), with the parts it
+    covered and their count: there the calibration parts said less of the errors than the test parts show
+    (parts of a few coils or campaigns, all alike)."""
+    rows = table[(table["model"] == RECOMMENDED) & (table["calibration"] == "by_region") & (table["region"] != "all")]
+    short = {}
+    for name, coverage, n in zip(rows["region"], rows["coverage"], rows["n_test"]):
+        k = int(round(coverage * n))
+        if n and clopper_pearson(k, int(n))[1] < level:
+            short[name] = [k, int(n)]
+    return short
+
+
 @dataclass(frozen=True)
 class Scored:
     """How one model's intervals (or the recommended model's) are scored on a region's test rows."""
@@ -172,7 +186,9 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
         "model that predicted a part saw its period), models never trained on the row outside it; rows beyond "
         "every calibrated part (trust: extrapolation) get no interval and are not scored; coverage of the measured "
         "value, with its 95% Clopper-Pearson interval; "
-        "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended)"
+        "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended); "
+        "recalibrated: the predictor's interval there takes the test rows' errors too, the coverage being that of "
+        "the calibration rows' interval"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"
             if n_test > MAX_TEST_ROWS
@@ -233,10 +249,16 @@ def calibrate(
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])
     ]
-    with_stack = fitted.with_stack(honest, region)
-    best = best_on_test(measured, with_stack, region.choice, calibration, fitted)
+    best = best_on_test(measured, fitted.with_stack(honest, region), region.choice, calibration, fitted)
     table["best_on_test"] = table["region"].map(best)
     table["choice_holds"] = table["region"].map({name: fitted.recommended[name] == m for name, m in best.items()})
+    short = short_regions(table, level)
+    table["recalibrated"] = table["region"].isin(list(short))
+    if short:  # those regions' model and interval from their test parts too: the table stays the tested ones'
+        also = ~calibration & usable & np.isin(region.interval, list(short))
+        fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also)
+        fitted.recalibrated = short
+    with_stack = fitted.with_stack(honest, region)
     return Calibration(fitted, table, region, calibration, with_stack)
 
 

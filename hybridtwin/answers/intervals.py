@@ -176,8 +176,12 @@ class RegionIntervals:
         reach: dict[str, list[float]] | None = None,
         beyond_region: bool = False,
         spreads: dict | None = None,
+        recalibrated: dict[str, list[int]] | None = None,
     ):
         self.calibration = calibration
+        # the regions calibrated (and, out of the support, chosen) on their test parts too
+        # (:func:`~hybridtwin.answers.coverage.short_regions`), with the parts of them the tested interval covered
+        self.recalibrated = recalibrated or {}
         # out of the support, per region the corrections' disagreement on each of its calibration parts (None where
         # one had no value), and per model and region the positions among them of the parts it was scored on, where
         # not all (its errors' order); none stored: the plain interval
@@ -215,30 +219,26 @@ class RegionIntervals:
         distance=None,
         seed: int = 0,
         reach=None,
+        also: np.ndarray | None = None,
     ) -> "RegionIntervals":
-        """``reach``: what calibrated the intervals (:class:`trust.Reach`), stored for the trust verdicts."""
+        """``reach``: what calibrated the intervals (:class:`trust.Reach`), stored for the trust verdicts;
+        ``also``: rows beyond the calibration rows (the test parts of a region whose interval fell short on them,
+        :func:`~hybridtwin.answers.coverage.short_regions`) that calibrate their region's interval too, and choose
+        its model and stack where the region chooses its own (out of the support; not the gate's parts beyond a
+        DoE range, which take the support's model). Their blocks are their own: every other region's fit stays."""
         measured = np.asarray(measured, float)
         region = as_regions(region)
-        members = stack_members(honest)
-        stack = np.full(len(measured), np.nan)
-        blocks = choosing_blocks(calibration)
-        weights, ranked_rows = {}, {}
-        for name in sorted(set(region.choice[calibration])):
-            rows = np.flatnonzero(calibration & (region.choice == name))  # all of them: the choice is noisy enough
-            complete = rows[np.all([np.isfinite(p[rows]) for p in members.values()], axis=0)] if members else rows[:0]
-            if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
-                weights[name] = stack_weights(measured, members, complete)
-                folds = folds_of(blocks, complete)
-                stack[complete] = cross_fitted_stack(measured, members, complete, folds)[complete]
-            ranked_rows[name] = rows
+        also = np.zeros(len(measured), bool) if also is None else np.asarray(also, bool)
+        weights, stack, ranked_rows = _stacks(measured, stack_members(honest), region, calibration, also)
         candidates = {**honest, STACK: stack} if weights else dict(honest)
         ranking = {
             name: _ranking(measured, {m: p for m, p in candidates.items() if np.isfinite(p[rows]).any()}, rows)
             for name, rows in ranked_rows.items()
         }
         table, spreads = {}, {"regions": {}, "scored": {}}
+        errors_of = calibration | also
         for name in sorted(set(region.interval[calibration])):
-            rows = subsample(np.flatnonzero(calibration & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
+            rows = subsample(np.flatnonzero(errors_of & (region.interval == name)), MAX_CALIBRATION_ROWS, seed)
             spread = disagreement(candidates, rows) if is_outside(name) else None
             if spread is not None:
                 spreads["regions"][name] = [None if np.isnan(v) else v for v in np.round(spread, 6).tolist()]
@@ -262,13 +262,7 @@ class RegionIntervals:
 
     def with_stack(self, predictions: dict[str, np.ndarray], region) -> dict[str, np.ndarray]:
         """The predictions with the stack added (each row blended with its region's weights; NaN without)."""
-        choice = as_regions(region).choice
-        stacked = np.full(len(choice), np.nan)
-        for name, weights in self.weights.items():
-            rows = np.flatnonzero(choice == name)
-            if len(rows) and all(m in predictions for m in members(weights)):
-                stacked[rows] = blend(weights, predictions, rows)
-        return {**predictions, STACK: stacked}
+        return {**predictions, STACK: _blended(self.weights, predictions, as_regions(region).choice)}
 
     @property
     def recommended(self) -> dict[str, str]:
@@ -335,6 +329,7 @@ class RegionIntervals:
             "beyond_region": self.beyond_region,
             "stack_weights": self.weights,
             "calibration_spreads": self.spreads,
+            "recalibrated": self.recalibrated,
         }
 
     @classmethod
@@ -348,7 +343,40 @@ class RegionIntervals:
             data.get("calibrated_reach"),
             data.get("beyond_region", False),
             data.get("calibration_spreads"),
+            data.get("recalibrated"),
         )
+
+
+def _stacks(measured, members: dict[str, np.ndarray], region: Regions, calibration, also: np.ndarray):
+    """Per choice region its stack's weights and its rows that choose, and the stack's value on every row that
+    calibrates: cross-fitted by block where it chose, blended with the region's weights on the rows ``also`` that
+    did not (the gate's parts beyond a DoE range, which take the support's choice)."""
+    stack = np.full(len(measured), np.nan)
+    choosing = calibration | (also & (region.choice == region.interval))
+    blocks = choosing_blocks(calibration)
+    blocks = np.where(also, choosing_blocks(also) + blocks.max() + 1, blocks)  # their own: no other region's move
+    weights, ranked_rows = {}, {}
+    for name in sorted(set(region.choice[calibration])):
+        rows = np.flatnonzero(choosing & (region.choice == name))  # all of them: the choice is noisy enough
+        complete = rows[np.all([np.isfinite(p[rows]) for p in members.values()], axis=0)] if members else rows[:0]
+        if len(complete) >= 2 * MIN_CALIBRATION_ROWS:
+            weights[name] = stack_weights(measured, members, complete)
+            folds = folds_of(blocks, complete)
+            stack[complete] = cross_fitted_stack(measured, members, complete, folds)[complete]
+        ranked_rows[name] = rows
+    if (also & ~choosing).any():
+        stack = np.where(also & ~choosing, _blended(weights, members, region.choice), stack)
+    return weights, stack, ranked_rows
+
+
+def _blended(weights: dict[str, dict[str, float]], predictions: dict[str, np.ndarray], choice) -> np.ndarray:
+    """The stack: each row blended with its region's ``weights``; NaN in a region without (or a member missing)."""
+    stacked = np.full(len(choice), np.nan)
+    for name, region_weights in weights.items():
+        rows = np.flatnonzero(choice == name)
+        if len(rows) and all(m in predictions for m in members(region_weights)):
+            stacked[rows] = blend(region_weights, predictions, rows)
+    return stacked
 
 
 def _as_floats(values, kept=None) -> np.ndarray:

@@ -192,6 +192,7 @@ class Predictor:
         extrapolated = where.trust == trust.EXTRAPOLATION
         picked.loc[extrapolated, ["pred_lower", "pred_upper"]] = np.nan  # nothing checked an interval this far
         self._say_why_wider(where, picked, values, level, frame.columns)
+        self._say_recalibrated(where, picked)
         return answer.assemble(frame, where, values, picked, level, all_models, self.inputs)
 
     def _say_why_wider(self, where: answer.Where, picked: pd.DataFrame, values: dict, level: float, columns) -> None:
@@ -225,6 +226,17 @@ class Predictor:
                 + " times its calibration's: the models that correct the surrogate differ by "
                 + numbers(spread[rows])
                 + f" {unit} (sd) here, {typical:.3g} {unit} on the parts that calibrated it"
+            )
+
+    def _say_recalibrated(self, where: answer.Where, picked: pd.DataFrame) -> None:
+        """The reason of a row whose region was calibrated on the log's test parts too says why: the calibration
+        parts' interval covered too few of them."""
+        has = np.isfinite(picked["pred_lower"].to_numpy(float))
+        for region, (covered, n) in self.intervals.recalibrated.items():
+            rows = has & (where.region.interval == region)
+            where.reason[rows] = where.reason[rows] + (
+                f"; calibrated on the log's test parts here too: the calibration parts' interval covered {covered} "
+                f"of {n} of them ({covered / n:.0%})"
             )
 
     def where(self, X: pd.DataFrame) -> answer.Where:
