@@ -343,8 +343,7 @@ def comparison(
     """peer_comparison.csv: every model and the recommended one on the same held-out production rows."""
     from hybridtwin.models.peers import comparison_table
 
-    picked = calibrated.recommended(level)
-    models = {**calibrated.honest, registry.RECOMMENDED: picked[registry.RECOMMENDED_COLUMN].to_numpy(float)}
+    models = calibrated.held_out(level)  # as the intervals' table tested them: the test parts never chose
     return comparison_table(
         predictions["measured"],
         models,

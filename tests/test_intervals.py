@@ -888,3 +888,8 @@ def test_the_intervals_step_recalibrates_a_short_region_on_its_test_parts_and_sa
         assert again.intervals.calibration[model][name] == calibrated.intervals.calibration[model][name]
     stored = intervals.RegionIntervals.from_dict(again.intervals.to_dict())
     assert stored.recalibrated == again.intervals.recalibrated
+    # the peer comparison scores the test parts as the table tested them: the calibration parts' stack and choice,
+    # which never read the test parts (the same as without the shift of the test parts)
+    assert again.tested.to_dict() == {**calibrated.intervals.to_dict()}
+    for name, values in calibrated.held_out(0.8).items():
+        np.testing.assert_array_equal(again.held_out(0.8)[name], values, err_msg=name)

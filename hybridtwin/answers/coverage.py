@@ -207,6 +207,8 @@ class Calibration:
     region: Regions
     calibration: np.ndarray
     honest: dict[str, np.ndarray]  # with the stack
+    # the intervals the table tested, where a short region was chosen and calibrated on its test parts since
+    tested: RegionIntervals | None = None
     _picked: dict = field(default_factory=dict, init=False, repr=False)
 
     def recommended(self, level: float) -> pd.DataFrame:
@@ -216,6 +218,15 @@ class Calibration:
         if level not in self._picked:
             self._picked[level] = recommended_prediction(self.intervals, self.honest, self.region, level, bounds=False)
         return self._picked[level]
+
+    def held_out(self, level: float) -> dict[str, np.ndarray]:
+        """Every model's honest prediction and the recommended one's as the table tested them on the test parts:
+        a recalibrated region's stack and choice from before its test parts chose them."""
+        if self.tested is None:
+            return {**self.honest, RECOMMENDED: self.recommended(level)[RECOMMENDED_COLUMN].to_numpy(float)}
+        honest = self.tested.with_stack(self.honest, self.region)
+        picked = recommended_prediction(self.tested, honest, self.region, level, bounds=False)
+        return {**honest, RECOMMENDED: picked[RECOMMENDED_COLUMN].to_numpy(float)}
 
 
 def calibrate(
@@ -254,12 +265,16 @@ def calibrate(
     table["choice_holds"] = table["region"].map({name: fitted.recommended[name] == m for name, m in best.items()})
     short = short_regions(table, level)
     table["recalibrated"] = table["region"].isin(list(short))
+    tested = None
     if short:  # those regions' model and interval from their test parts too: the table stays the tested ones'
         also = ~calibration & usable & np.isin(region.interval, list(short))
-        fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also)
+        tested, fitted = (
+            fitted,
+            RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also),
+        )
         fitted.recalibrated = short
     with_stack = fitted.with_stack(honest, region)
-    return Calibration(fitted, table, region, calibration, with_stack)
+    return Calibration(fitted, table, region, calibration, with_stack, tested)
 
 
 def beyond_range(inputs: pd.DataFrame, doe_range: dict, calibration) -> tuple[np.ndarray, pd.DataFrame]:
