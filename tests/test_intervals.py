@@ -893,3 +893,9 @@ def test_the_intervals_step_recalibrates_a_short_region_on_its_test_parts_and_sa
     assert again.tested.to_dict() == {**calibrated.intervals.to_dict()}
     for name, values in calibrated.held_out(0.8).items():
         np.testing.assert_array_equal(again.held_out(0.8)[name], values, err_msg=name)
+    # and the figure draws the held-out parts' errors against the intervals they tested
+    drawn = [
+        coverage.figure_data(c, frame["measured"], frame["knn_distance"], 0.8, 0)["half_width"]
+        for c, frame in ((calibrated, table), (again, shifted))
+    ]
+    assert drawn[0] == drawn[1]

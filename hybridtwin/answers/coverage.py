@@ -187,8 +187,8 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
         "every calibrated part (trust: extrapolation) get no interval and are not scored; coverage of the measured "
         "value, with its 95% Clopper-Pearson interval; "
         "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended); "
-        "recalibrated: the predictor's interval there takes the test rows' errors too, the coverage being that of "
-        "the calibration rows' interval"
+        "recalibrated: the predictor's region there is chosen and calibrated on the test rows too (the gate's rows "
+        "beyond a DoE range: its interval only), the table being the tested interval's"
         + (
             f"; a seeded sample of {MAX_TEST_ROWS:,} test rows per region where there are more"
             if n_test > MAX_TEST_ROWS
@@ -219,13 +219,19 @@ class Calibration:
             self._picked[level] = recommended_prediction(self.intervals, self.honest, self.region, level, bounds=False)
         return self._picked[level]
 
+    def as_tested(self) -> tuple[RegionIntervals, dict[str, np.ndarray]]:
+        """The intervals and honest predictions (with their stack) as the table tested them on the test parts: a
+        recalibrated region's from before its test parts chose and calibrated it."""
+        if self.tested is None:
+            return self.intervals, self.honest
+        return self.tested, self.tested.with_stack(self.honest, self.region)
+
     def held_out(self, level: float) -> dict[str, np.ndarray]:
-        """Every model's honest prediction and the recommended one's as the table tested them on the test parts:
-        a recalibrated region's stack and choice from before its test parts chose them."""
+        """Every model's honest prediction and the recommended one's, as the table tested them (:meth:`as_tested`)."""
         if self.tested is None:
             return {**self.honest, RECOMMENDED: self.recommended(level)[RECOMMENDED_COLUMN].to_numpy(float)}
-        honest = self.tested.with_stack(self.honest, self.region)
-        picked = recommended_prediction(self.tested, honest, self.region, level, bounds=False)
+        intervals, honest = self.as_tested()
+        picked = recommended_prediction(intervals, honest, self.region, level, bounds=False)
         return {**honest, RECOMMENDED: picked[RECOMMENDED_COLUMN].to_numpy(float)}
 
 
@@ -317,9 +323,8 @@ def figure_data(calibrated: Calibration, measured, distance, level: float, seed:
     shown = np.sort(np.random.default_rng(seed).choice(test, min(len(test), n_shown), replace=False))
     # the half-widths' medians on a seeded sample of a long log (every row up to MAX_TEST_ROWS), with the shown rows
     rows = np.union1d(shown, subsample(np.arange(len(calibrated.region.interval)), MAX_TEST_ROWS, seed))
-    picked = recommended_prediction(
-        calibrated.intervals, {m: p[rows] for m, p in calibrated.honest.items()}, calibrated.region[rows], level
-    )
+    intervals, honest = calibrated.as_tested()  # the held-out rows' errors against the intervals they tested
+    picked = recommended_prediction(intervals, {m: p[rows] for m, p in honest.items()}, calibrated.region[rows], level)
     error = np.asarray(measured, float)[rows] - picked[RECOMMENDED_COLUMN].to_numpy(float)
     half = ((picked["pred_upper"] - picked["pred_lower"]) / 2).to_numpy(float)
     region = calibrated.region.interval[rows]
@@ -330,6 +335,6 @@ def figure_data(calibrated: Calibration, measured, distance, level: float, seed:
         "distance": np.asarray(distance, float)[shown],
         "error": error[is_shown],
         "region": region[is_shown],
-        "half_width": {name: float(np.nanmedian(half[region == name])) for name in calibrated.intervals.regions},
+        "half_width": {name: float(np.nanmedian(half[region == name])) for name in intervals.regions},
         "coverage": dict(zip(recommended["region"], recommended["coverage"])),
     }
