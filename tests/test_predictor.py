@@ -332,8 +332,7 @@ def test_a_row_of_a_region_recalibrated_on_its_test_parts_says_why(parts):
     stored["recalibrated"] = {region: [32, 66]}
     predictor.intervals = RegionIntervals.from_dict(stored)
     answered = predictor.predict(parts)
-    here = (answered["interval_region"] if "interval_region" in answered else plain["interval_region"]) == region
-    here &= answered["pred_lower"].notna()
+    here = (plain["interval_region"] == region) & answered["pred_lower"].notna()
     says(
         answered.loc[row, "trust_reason"],
         "calibrated on the log's test parts here too",

@@ -126,16 +126,12 @@ def clopper_pearson(covered: int, n: int, confidence: float = 0.95) -> tuple[flo
 
 def short_regions(table: pd.DataFrame, level: float) -> dict[str, list[int]]:
     """The regions where the recommended model's interval (by region) covered fewer of the test parts than
-    ``level`` beyond the binomial uncertainty (its 95% Clopper-Pearson interval lies below), with the parts it
-    covered and their count: there the calibration parts said less of the errors than the test parts show
-    (parts of a few coils or campaigns, all alike)."""
+    ``level`` beyond the binomial uncertainty (the table's ``coverage_high``, its 95% Clopper-Pearson bound, lies
+    below), with the parts it covered and their count: there the calibration parts said less of the errors than
+    the test parts show (parts of a few coils or campaigns, all alike)."""
     rows = table[(table["model"] == RECOMMENDED) & (table["calibration"] == "by_region") & (table["region"] != "all")]
-    short = {}
-    for name, coverage, n in zip(rows["region"], rows["coverage"], rows["n_test"]):
-        k = int(round(coverage * n))
-        if n and clopper_pearson(k, int(n))[1] < level:
-            short[name] = [k, int(n)]
-    return short
+    rows = rows[rows["coverage_high"] < level]
+    return {name: [round(c * n), int(n)] for name, c, n in zip(rows["region"], rows["coverage"], rows["n_test"])}
 
 
 @dataclass(frozen=True)
@@ -207,8 +203,9 @@ class Calibration:
     region: Regions
     calibration: np.ndarray
     honest: dict[str, np.ndarray]  # with the stack
-    # the intervals the table tested, where a short region was chosen and calibrated on its test parts since
-    tested: RegionIntervals | None = None
+    # the intervals and honest predictions (with their stack) the table tested, where a short region was chosen
+    # and calibrated on its test parts since
+    tested: tuple[RegionIntervals, dict[str, np.ndarray]] | None = None
     _picked: dict = field(default_factory=dict, init=False, repr=False)
 
     def recommended(self, level: float) -> pd.DataFrame:
@@ -222,9 +219,7 @@ class Calibration:
     def as_tested(self) -> tuple[RegionIntervals, dict[str, np.ndarray]]:
         """The intervals and honest predictions (with their stack) as the table tested them on the test parts: a
         recalibrated region's from before its test parts chose and calibrated it."""
-        if self.tested is None:
-            return self.intervals, self.honest
-        return self.tested, self.tested.with_stack(self.honest, self.region)
+        return self.tested or (self.intervals, self.honest)
 
     def held_out(self, level: float) -> dict[str, np.ndarray]:
         """Every model's honest prediction and the recommended one's, as the table tested them (:meth:`as_tested`)."""
@@ -266,21 +261,19 @@ def calibrate(
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])
     ]
-    best = best_on_test(measured, fitted.with_stack(honest, region), region.choice, calibration, fitted)
+    with_stack = fitted.with_stack(honest, region)
+    best = best_on_test(measured, with_stack, region.choice, calibration, fitted)
     table["best_on_test"] = table["region"].map(best)
     table["choice_holds"] = table["region"].map({name: fitted.recommended[name] == m for name, m in best.items()})
     short = short_regions(table, level)
     table["recalibrated"] = table["region"].isin(list(short))
-    tested = None
-    if short:  # those regions' model and interval from their test parts too: the table stays the tested ones'
-        also = ~calibration & usable & np.isin(region.interval, list(short))
-        tested, fitted = (
-            fitted,
-            RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also),
-        )
-        fitted.recalibrated = short
-    with_stack = fitted.with_stack(honest, region)
-    return Calibration(fitted, table, region, calibration, with_stack, tested)
+    if not short:
+        return Calibration(fitted, table, region, calibration, with_stack)
+    # those regions' model and interval from their test parts too; the table stays the tested ones'
+    also = ~calibration & usable & np.isin(region.interval, list(short))
+    refitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also)
+    refitted.recalibrated = short
+    return Calibration(refitted, table, region, calibration, refitted.with_stack(honest, region), (fitted, with_stack))
 
 
 def beyond_range(inputs: pd.DataFrame, doe_range: dict, calibration) -> tuple[np.ndarray, pd.DataFrame]:
