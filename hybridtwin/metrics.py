@@ -37,9 +37,13 @@ def scores(y_true, y_pred, names=("r2", "rmse", "mae", "bias")) -> dict[str, flo
 
 
 def block_means(values, n_blocks: int) -> np.ndarray:
-    """Means over at most ``n_blocks`` blocks of consecutive rows (at least 2 blocks, about 20 rows or more each)."""
+    """Means over at most ``n_blocks`` blocks of consecutive rows (at least 2 blocks, about 20 rows or more each;
+    ``np.array_split``'s blocks, never an empty one), of at least one value."""
     values = np.asarray(values, float)
-    return np.array([block.mean() for block in np.array_split(values, min(n_blocks, max(2, len(values) // 20)))])
+    n_blocks = min(n_blocks, max(2, len(values) // 20), len(values))
+    size, longer = divmod(len(values), n_blocks)
+    lengths = np.full(n_blocks, size) + (np.arange(n_blocks) < longer)  # np.array_split's blocks
+    return np.add.reduceat(values, np.r_[0, np.cumsum(lengths)[:-1]]) / lengths
 
 
 def batch_means(values, n_blocks: int, min_blocks: int) -> np.ndarray:

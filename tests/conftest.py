@@ -58,7 +58,11 @@ def tiny_residual_data():
 
 
 def pytest_collection_modifyitems(items):
-    """Every test not marked ``scenario`` or ``workflow`` is ``fast`` (the tiers: pyproject's markers)."""
+    """Every test not marked ``scenario`` or ``workflow`` is ``fast`` (the tiers: pyproject's markers). The tests that
+    read the workflow's shared run (fixture ``run_dir``) form one xdist group: under ``--dist loadgroup`` one worker
+    runs the workflow once for all of them."""
     for item in items:
         if not any(item.get_closest_marker(tier) for tier in ("scenario", "workflow")):
             item.add_marker(pytest.mark.fast)
+        if "run_dir" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group("run_dir"))

@@ -947,3 +947,34 @@ def test_the_id_test_sees_the_chosen_forms_of_the_inputs_put_back_and_nothing_el
     selection.refit()
     x_term = selection.chosen[0].form.predict(x)  # the stroke counter's term stays out
     np.testing.assert_allclose(selection._of_inputs(), selection.remaining + x_term)
+
+
+def _saturating_plant(seed: int):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 1, 400)
+    return Candidate.new("x", "input", x, ("x",)), np.tanh(6 * (x - 0.5)) + 0.1 * rng.normal(size=400)
+
+
+def test_a_fit_asked_again_on_the_same_target_is_remembered_and_comes_as_a_copy():
+    candidate, y = _saturating_plant(5)
+    rules = fitting.Rules(SETTINGS, n_tests=1, min_effect=0.0)
+    first = rules.best_fit(candidate, y)
+    again, third = rules.best_fit(candidate, y), rules.fit_all([candidate], y)["x"]
+    assert len(rules.memory.fits) == 1
+    fresh = best_fit(candidate, y, SETTINGS)
+    for fit in (first, again, third):
+        assert (fit.form.name, fit.score, fit.oof.tolist()) == (fresh.form.name, fresh.score, fresh.oof.tolist())
+    assert again is not third and again.form is not third.form and again.alternatives[0] is again
+    rules.best_fit(candidate, y + 1.0)  # another target: fitted anew
+    assert len(rules.memory.fits) == 2
+
+
+def test_the_fit_memory_forgets_the_oldest_fits_beyond_its_bytes():
+    candidate, y = _saturating_plant(6)
+    fit = best_fit(candidate, y, SETTINGS)
+    size = candidate.values.nbytes + sum(alternative.oof.nbytes for alternative in fit.alternatives)
+    memory = fitting.FitMemory(max_bytes=2 * size)
+    for shift in range(3):
+        memory.put(memory.key(candidate, y + shift), fit)
+    assert memory.get(memory.key(candidate, y)) is None and memory.get(memory.key(candidate, y + 2)) is not None
+    assert memory.bytes == 2 * size

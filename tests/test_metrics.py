@@ -11,6 +11,7 @@ from hybridtwin.metrics import (
     batch_means,
     bias,
     block_gains,
+    block_means,
     block_p_value,
     evidence_p_value,
     lag1_correlation,
@@ -48,6 +49,13 @@ def test_block_test_counts_blocks_not_rows():
     # a t-test over the 40 rows would call this highly significant
     assert block_p_value(y, np.ones(40), n_blocks=2) == 0.0
     assert block_p_value(y, np.zeros(40), n_blocks=2) == 1.0
+
+
+def test_block_means_are_the_means_of_array_splits_blocks():
+    values = np.random.default_rng(3).normal(size=1001)
+    for n_values, n_blocks in [(1001, 7), (1001, 200), (41, 50), (3, 5), (2, 2)]:
+        expected = [block.mean() for block in np.array_split(values[:n_values], min(n_blocks, max(2, n_values // 20)))]
+        np.testing.assert_allclose(block_means(values[:n_values], n_blocks), expected, rtol=1e-12)
 
 
 def test_batch_means_lengthen_blocks_while_their_means_stay_correlated():

@@ -6,12 +6,16 @@ are held out in stretches of their own values (:func:`value_folds`).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import hashlib
 import logging
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from joblib import Parallel, delayed
 
 from hybridtwin.crossval import folds as kfolds
@@ -258,6 +262,38 @@ def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float
     )
 
 
+def _digest(values) -> bytes:
+    values = np.ascontiguousarray(values)
+    data = pd.util.hash_array(values.ravel()).tobytes() if values.dtype == object else values.tobytes()
+    return hashlib.blake2b(data, digest_size=16).digest() + str(values.shape).encode()
+
+
+class FitMemory:
+    """The best fits one diagnosis has made, by candidate and target: the selection asks again for fits it made
+    before (its second pass after the first cause, the refinements), and a fit depends on those alone.
+
+    Copies go in and come out, so no caller shares an object with another; beyond ``max_bytes`` of fitted
+    values the oldest fits are forgotten."""
+
+    def __init__(self, max_bytes: int = 256 * 2**20):
+        self.max_bytes, self.bytes, self.fits = max_bytes, 0, OrderedDict()
+
+    @staticmethod
+    def key(candidate: Candidate, y) -> tuple:
+        return candidate.cause, _digest(candidate.values), _digest(y)
+
+    def get(self, key) -> Fit | None:
+        stored = self.fits.get(key)
+        return None if stored is None else copy.deepcopy(stored[0])
+
+    def put(self, key, fit: Fit) -> None:
+        size = fit.candidate.values.nbytes + sum(alternative.oof.nbytes for alternative in fit.alternatives)
+        self.fits[key] = (copy.deepcopy(fit), size)
+        self.bytes += size
+        while self.bytes > self.max_bytes and self.fits:
+            self.bytes -= self.fits.popitem(last=False)[1][1]
+
+
 @dataclass(frozen=True)
 class Rules:
     """What every step of the selection asks of a fit, fixed once per diagnosis: the settings, the number of
@@ -269,6 +305,7 @@ class Rules:
     n_tests: int = 1
     min_effect: float = 0.0
     input_correlation: Callable[[np.ndarray, float], np.ndarray] | None = None
+    memory: FitMemory = field(default_factory=FitMemory, compare=False, repr=False)
 
     def significant(self, fit: Fit) -> bool:
         return is_significant(fit, self.n_tests, self.settings, self.min_effect)
@@ -284,10 +321,26 @@ class Rules:
         return min([fit.score, *(alt.score for alt in fit.alternatives if self.significant(alt))])
 
     def best_fit(self, candidate: Candidate, y) -> Fit:
-        return self.settled(best_fit(candidate, y, self.settings, self.min_effect))
+        return self.settled(self._best_fits([candidate], y)[0])
 
     def fit_all(self, candidates: list[Candidate], y) -> dict[str, Fit]:
-        return {name: self.settled(fit) for name, fit in fit_all(candidates, y, self.settings, self.min_effect).items()}
+        return {c.name: self.settled(fit) for c, fit in zip(candidates, self._best_fits(candidates, y))}
+
+    def _best_fits(self, candidates: list[Candidate], y) -> list[Fit]:
+        """Each candidate's :func:`best_fit` on ``y``: from :attr:`memory` where this diagnosis made it before, the
+        others fitted (in parallel where there are several)."""
+        keys = [self.memory.key(candidate, y) + (self.settings, self.min_effect) for candidate in candidates]
+        known = [self.memory.get(key) for key in keys]
+        missing = [candidate for candidate, fit in zip(candidates, known) if fit is None]
+        if len(missing) == 1:
+            new = iter([best_fit(missing[0], y, self.settings, self.min_effect)])
+        else:
+            new = iter(fit_all(missing, y, self.settings, self.min_effect).values())
+        fits = [next(new) if fit is None else fit for fit in known]
+        for key, fit, was_known in zip(keys, fits, known):
+            if was_known is None:
+                self.memory.put(key, fit)
+        return fits
 
     def settled(self, fit: Fit) -> Fit:
         """A form put ahead of a better-scoring monotone trend (it predicts the same, and says what the

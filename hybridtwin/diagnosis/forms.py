@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import expit
 from sklearn.isotonic import IsotonicRegression
 
 from hybridtwin.io.files import json_safe
@@ -29,8 +30,10 @@ FAMILIES = {
 SIGMOID_SPAN = 4.39  # a logistic's 10-90% change spans 2*ln(9) = 4.39 widths
 
 
-def _logistic(z):
-    return 0.5 * (1.0 + np.tanh(0.5 * z))
+def logistic(z):
+    """1 / (1 + exp(-z)), by scipy's expit: three times numpy's tanh form, and the sigmoid fits are most of a
+    diagnosis' time."""
+    return expit(z)
 
 
 class Form:
@@ -127,7 +130,7 @@ class Sigmoid(Form):
         return self
 
     def _predict(self, x):
-        return self.intercept + self.amplitude * _logistic((np.asarray(x, float) - self.threshold) / self.width)
+        return self.intercept + self.amplitude * logistic((np.asarray(x, float) - self.threshold) / self.width)
 
     def describe(self, column, unit, x_unit=""):
         return (
@@ -154,7 +157,7 @@ def sigmoid_grid_start(x, y):
     thresholds = np.percentile(x, np.linspace(5, 95, 19))
     best = None
     for width in spread * np.array(SIGMOID_WIDTH_SHARES):
-        S = _logistic((x[:, None] - thresholds[None, :]) / width)
+        S = logistic((x[:, None] - thresholds[None, :]) / width)
         s_mean = S.mean(axis=0)
         centered = S - s_mean
         var = (centered**2).sum(axis=0)
@@ -168,14 +171,14 @@ def sigmoid_grid_start(x, y):
 
 def sigmoid_residuals(theta, x, y, scale):
     """Sigmoid minus data at theta = (intercept, amplitude, threshold / scale, log(width / scale))."""
-    return theta[0] + theta[1] * _logistic((x - theta[2] * scale) / (np.exp(theta[3]) * scale)) - y
+    return theta[0] + theta[1] * logistic((x - theta[2] * scale) / (np.exp(theta[3]) * scale)) - y
 
 
 def sigmoid_jacobian(theta, x, y, scale):
     """The derivatives of :func:`sigmoid_residuals` by theta, one column each."""
     width = np.exp(theta[3]) * scale
     z = (x - theta[2] * scale) / width
-    s = _logistic(z)
+    s = logistic(z)
     ds = theta[1] * s * (1.0 - s)
     return np.column_stack([np.ones_like(x), s, -ds * scale / width, -ds * z])
 

@@ -34,7 +34,7 @@ from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from hybridtwin.diagnosis.candidates import Candidate
 from hybridtwin.diagnosis.fits import Fit, Rules, is_significant
-from hybridtwin.diagnosis.forms import SIGMOID_WIDTH_SHARES, fit_form
+from hybridtwin.diagnosis.forms import SIGMOID_WIDTH_SHARES, fit_form, logistic
 from hybridtwin.diagnosis.naming import between_level_ss
 from hybridtwin.diagnosis.wording import INPUT_SURFACE, SMOOTH_INPUTS
 
@@ -385,7 +385,7 @@ def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     thresholds = np.quantile(x[0], np.linspace(0.1, 0.9, 9))
     span = np.ptp(x[0]) or 1.0
     for width in SIGMOID_WIDTH_SHARES:
-        basis = 0.5 * (1 + np.tanh(0.5 * (x[:, None, :] - thresholds[None, :, None]) / (width * span)))
+        basis = logistic((x[:, None, :] - thresholds[None, :, None]) / (width * span))
         best = np.maximum(best, np.max(_weighted_r2(basis, means, weights), axis=1))
     return best
 
