@@ -185,7 +185,7 @@ def summary(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def _plant_folder(keep: Path | None, index: int):
+def plant_folder(keep: Path | None, index: int):
     """Where a plant's workflow runs: a scratch folder, or with ``--keep`` one that stays (``keep``/p<index>)."""
     if keep is None:
         return tempfile.TemporaryDirectory()
@@ -238,7 +238,7 @@ def main() -> None:
     rows = replay(args.replay) if args.replay else []
     for index in range(0 if args.replay else args.plants):
         name, doe, log, fresh, inputs, target, simulate = plant(index, args.seed, args.generator)
-        with _plant_folder(args.keep, index) as scratch:
+        with plant_folder(args.keep, index) as scratch:
             matched = matched_cases(doe, log, inputs, target, np.random.default_rng(index), simulate)
             models = run_workflow(Path(scratch), doe, log, matched, inputs, target, args.seed)
             rows += answer_fresh(name, len(log), models, fresh, target)

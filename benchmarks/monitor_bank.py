@@ -30,11 +30,9 @@ Writes benchmarks/results/monitor_bank.csv (a row per batch and method) and moni
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -42,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fresh_coverage import matched_cases, plant_simulator, run_workflow  # noqa: E402
+from fresh_coverage import matched_cases, plant_folder, plant_simulator, run_workflow  # noqa: E402
 
 from hybridtwin.answers.predictor import Predictor  # noqa: E402
 from hybridtwin.demo import families, structures  # noqa: E402
@@ -166,14 +164,6 @@ def draw(generator: str, index: int, seed: int, n_production: int):
     return families.draw_plant(family, seed * 100 + index, n_production=n_production), family
 
 
-def _plant_folder(keep: Path | None, index: int):
-    """Where a plant's workflow runs: a scratch folder, or with ``--keep`` one that stays (``keep``/p<index>)."""
-    if keep is None:
-        return tempfile.TemporaryDirectory()
-    (keep / f"p{index}").mkdir(parents=True, exist_ok=True)
-    return contextlib.nullcontext(str(keep / f"p{index}"))
-
-
 def _kept(folder: Path, plant: str, batches: list[tuple]) -> None:
     """The changed batches with a cause to name, as parquet files beside the plant's run, and what each must
     be named (meta.json), for ``--replay``."""
@@ -208,7 +198,7 @@ def plant_rows(index: int, seed: int, n_log: int, n_batches: int, timings: list,
     log, fresh = case.production.iloc[:n_log], case.production.iloc[n_log:].reset_index(drop=True)
     rng = np.random.default_rng([seed, index])
     rows, named = [], []
-    with _plant_folder(keep, index) as scratch:
+    with plant_folder(keep, index) as scratch:
         matched = matched_cases(case.doe, log, case.inputs, case.target, rng, plant_simulator(case))
         models = run_workflow(Path(scratch), case.doe, log, matched, case.inputs, case.target, seed)
         predictor = Predictor.load(models)
