@@ -965,6 +965,7 @@ def test_a_fit_asked_again_on_the_same_target_is_remembered_and_comes_as_a_copy(
     for fit in (first, again, third):
         assert (fit.form.name, fit.score, fit.oof.tolist()) == (fresh.form.name, fresh.score, fresh.oof.tolist())
     assert again is not third and again.form is not third.form and again.alternatives[0] is again
+    assert again.candidate is candidate and again.oof is not third.oof
     rules.best_fit(candidate, y + 1.0)  # another target: fitted anew
     assert len(rules.memory.fits) == 2
 
@@ -972,7 +973,7 @@ def test_a_fit_asked_again_on_the_same_target_is_remembered_and_comes_as_a_copy(
 def test_the_fit_memory_forgets_the_oldest_fits_beyond_its_bytes():
     candidate, y = _saturating_plant(6)
     fit = best_fit(candidate, y, SETTINGS)
-    size = candidate.values.nbytes + sum(alternative.oof.nbytes for alternative in fit.alternatives)
+    size = sum(alternative.oof.nbytes for alternative in fit.alternatives)
     memory = fitting.FitMemory(max_bytes=2 * size)
     for shift in range(3):
         memory.put(memory.key(candidate, y + shift), fit)

@@ -272,8 +272,9 @@ class FitMemory:
     """The best fits one diagnosis has made, by candidate and target: the selection asks again for fits it made
     before (its second pass after the first cause, the refinements), and a fit depends on those alone.
 
-    Copies go in and come out, so no caller shares an object with another; beyond ``max_bytes`` of fitted
-    values the oldest fits are forgotten."""
+    Copies go in and come out, so no caller shares a fit or a form with another (the candidate, an input that
+    nothing changes, is shared: a deep copy of an id's labels would copy every string); beyond ``max_bytes`` of
+    held-out predictions the oldest fits are forgotten."""
 
     def __init__(self, max_bytes: int = 256 * 2**20):
         self.max_bytes, self.bytes, self.fits = max_bytes, 0, OrderedDict()
@@ -284,14 +285,19 @@ class FitMemory:
 
     def get(self, key) -> Fit | None:
         stored = self.fits.get(key)
-        return None if stored is None else copy.deepcopy(stored[0])
+        return None if stored is None else _copy(stored[0])
 
     def put(self, key, fit: Fit) -> None:
-        size = fit.candidate.values.nbytes + sum(alternative.oof.nbytes for alternative in fit.alternatives)
-        self.fits[key] = (copy.deepcopy(fit), size)
+        size = sum(alternative.oof.nbytes for alternative in fit.alternatives)
+        self.fits[key] = (_copy(fit), size)
         self.bytes += size
         while self.bytes > self.max_bytes and self.fits:
             self.bytes -= self.fits.popitem(last=False)[1][1]
+
+
+def _copy(fit: Fit) -> Fit:
+    """A deep copy of ``fit`` and its alternatives that shares their candidate."""
+    return copy.deepcopy(fit, {id(fit.candidate): fit.candidate})
 
 
 @dataclass(frozen=True)
