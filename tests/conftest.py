@@ -57,6 +57,7 @@ def tiny_residual_data():
     return X, y
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the groups
 def pytest_collection_modifyitems(items):
     """Every test not marked ``scenario`` or ``workflow`` is ``fast`` (the tiers: pyproject's markers). The tests that
     read the workflow's shared run (fixture ``run_dir``) form one xdist group: under ``--dist loadgroup`` one worker

@@ -966,8 +966,16 @@ def test_a_fit_asked_again_on_the_same_target_is_remembered_and_comes_as_a_copy(
         assert (fit.form.name, fit.score, fit.oof.tolist()) == (fresh.form.name, fresh.score, fresh.oof.tolist())
     assert again is not third and again.form is not third.form and again.alternatives[0] is again
     assert again.candidate is candidate and again.oof is not third.oof
-    rules.best_fit(candidate, y + 1.0)  # another target: fitted anew
-    assert len(rules.memory.fits) == 2
+    assert all(stored is not fit for stored, _ in rules.memory.fits.values() for fit in (first, again, third))
+    rules.best_fit(candidate, y + 1.0)  # another target, another candidate of the same values, another one's
+    renamed = Candidate.new("x2", "input", candidate.values, ("x2",))
+    rules.fit_all([renamed, Candidate.new("x", "input", candidate.values[::-1].copy(), ("x",))], y)
+    assert len(rules.memory.fits) == 4 and rules.best_fit(renamed, y).candidate is renamed
+    loose = fitting.Rules(SETTINGS, n_tests=1, min_effect=5.0, memory=rules.memory)
+    assert loose.best_fit(candidate, y).effect_std == fresh.effect_std and len(rules.memory.fits) == 5
+    four_folds = fitting.Rules(dataclasses.replace(SETTINGS, folds=4), n_tests=1, memory=rules.memory)
+    four_folds.best_fit(candidate, y)
+    assert len(rules.memory.fits) == 6
 
 
 def test_the_fit_memory_forgets_the_oldest_fits_beyond_its_bytes():

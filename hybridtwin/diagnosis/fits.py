@@ -247,8 +247,14 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
 
 def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
     """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
-    fits = Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, settings, min_effect) for c in candidates)
-    return {c.name: fit for c, fit in zip(candidates, fits)}
+    return {c.name: fit for c, fit in zip(candidates, best_fits(candidates, y, settings, min_effect))}
+
+
+def best_fits(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> list[Fit]:
+    """:func:`best_fit` of each candidate, in parallel over them where there are several."""
+    if len(candidates) == 1:
+        return [best_fit(candidates[0], y, settings, min_effect)]
+    return Parallel(n_jobs=settings.n_jobs)(delayed(best_fit)(c, y, settings, min_effect) for c in candidates)
 
 
 def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float) -> bool:
@@ -265,7 +271,7 @@ def is_significant(fit: Fit, n_tests: int, settings: Settings, min_effect: float
 def _digest(values) -> bytes:
     values = np.ascontiguousarray(values)
     data = pd.util.hash_array(values.ravel()).tobytes() if values.dtype == object else values.tobytes()
-    return hashlib.blake2b(data, digest_size=16).digest() + str(values.shape).encode()
+    return hashlib.blake2b(data, digest_size=16).digest() + f"{values.dtype.str}{values.shape}".encode()
 
 
 class FitMemory:
@@ -289,6 +295,8 @@ class FitMemory:
 
     def put(self, key, fit: Fit) -> None:
         size = sum(alternative.oof.nbytes for alternative in fit.alternatives)
+        if key in self.fits:
+            self.bytes -= self.fits.pop(key)[1]
         self.fits[key] = (_copy(fit), size)
         self.bytes += size
         while self.bytes > self.max_bytes and self.fits:
@@ -338,10 +346,7 @@ class Rules:
         keys = [self.memory.key(candidate, y) + (self.settings, self.min_effect) for candidate in candidates]
         known = [self.memory.get(key) for key in keys]
         missing = [candidate for candidate, fit in zip(candidates, known) if fit is None]
-        if len(missing) == 1:
-            new = iter([best_fit(missing[0], y, self.settings, self.min_effect)])
-        else:
-            new = iter(fit_all(missing, y, self.settings, self.min_effect).values())
+        new = iter(best_fits(missing, y, self.settings, self.min_effect))
         fits = [next(new) if fit is None else fit for fit in known]
         for key, fit, was_known in zip(keys, fits, known):
             if was_known is None:
