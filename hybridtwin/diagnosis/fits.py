@@ -245,11 +245,6 @@ def share_tolerance(fit: Fit, min_effect: float) -> float:
     return max(SHARE_TOLERANCE, min_effect**2 / fit.null_mse)
 
 
-def fit_all(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> dict[str, Fit]:
-    """Best fit of every candidate, in parallel over candidates; the order of the result is the input order."""
-    return {c.name: fit for c, fit in zip(candidates, best_fits(candidates, y, settings, min_effect))}
-
-
 def best_fits(candidates: list[Candidate], y, settings: Settings, min_effect: float) -> list[Fit]:
     """:func:`best_fit` of each candidate, in parallel over them where there are several."""
     if len(candidates) == 1:
