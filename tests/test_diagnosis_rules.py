@@ -987,3 +987,60 @@ def test_the_fit_memory_forgets_the_oldest_fits_beyond_its_bytes():
         memory.put(memory.key(candidate, y + shift), fit)
     assert memory.get(memory.key(candidate, y)) is None and memory.get(memory.key(candidate, y + 2)) is not None
     assert memory.bytes == 2 * size
+
+
+def test_a_column_beside_another_held_cause_is_judged_on_what_that_cause_leaves(monkeypatch):
+    # 18 coils whose offsets follow a strength's saturation and a thickness step at once
+    rng, coil, candidates = _coils(18, 40, seed=3)
+    group, thickness, strength = candidates[:3]
+    y = 2.5 * forms.logistic((strength.values - 300) / 6) + 1.2 * (thickness.values > 0.7)
+    y = y + rng.normal(0, 0.5, len(coil))
+    assert ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
+    # judged alone, the strength's share is noise to the thickness: no better than chance
+    monkeypatch.setattr(ids, "_beside_partner", lambda *args: None)
+    assert ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) > 0.3
+
+
+def test_two_held_columns_fit_random_coil_offsets_beyond_chance_at_no_more_than_the_level():
+    p_values = []
+    for s in range(40):
+        _, coil, candidates = _coils(16, 50, seed=100 + s)
+        offsets = np.random.default_rng(s).normal(size=16)[coil]
+        p_values.append(ids.level_chance_p(candidates[1], candidates[0], offsets, candidates, s, 0.01))
+    assert np.mean(np.array(p_values) < 0.05) <= 0.05
+    assert np.median(p_values) > 0.3
+
+
+def test_the_min_p_of_one_statistic_is_its_own_p_and_of_two_copies_the_same():
+    shuffled = np.random.default_rng(0).uniform(size=199)
+    for observed in (0.5, 0.99, 1.5):
+        own = (1 + np.sum(shuffled >= observed)) / 200
+        assert ids.min_p([observed], [shuffled]) == pytest.approx(own)
+        assert ids.min_p([observed, observed], [shuffled, shuffled]) == pytest.approx(own)
+    # a second, independent statistic costs: the smaller of two p-values is smaller by chance
+    other = np.random.default_rng(1).uniform(size=199)
+    assert ids.min_p([0.9, 0.5], [shuffled, other]) > min(ids.min_p([0.9], [shuffled]), ids.min_p([0.5], [other]))
+
+
+def test_the_level_fit_values_are_the_form_whose_share_the_level_shares_report():
+    rng = np.random.default_rng(2)
+    for n_levels in (7, 12, 25):
+        x, means, weights = rng.normal(size=n_levels), rng.normal(size=n_levels), rng.integers(1, 60, n_levels)
+        x[:3] = x[3]  # ties: a setting shared by several coils
+        w = weights / weights.sum()
+        fitted = ids.level_fit_values(x, means, weights.astype(float))
+        share = 1 - np.sum(w * (means - fitted) ** 2) / np.sum(w * (means - np.sum(w * means)) ** 2)
+        assert share == pytest.approx(ids.level_fit_shares(x[None, :], means, weights.astype(float))[0])
+
+
+def test_a_monotone_trend_that_took_up_a_second_per_lot_cause_gives_way_to_a_closed_form_and_that_cause():
+    # 18 lots of a jittered yield strength (a saturation) and a thickness (a step): the trend's jumps took up
+    # most of the step, which was then not significant
+    rng = np.random.default_rng(15)
+    sizes = np.maximum(1, rng.geometric(1 / 80, 18))
+    strength, thickness = rng.uniform(200, 230, 18), rng.uniform(0.66, 0.75, 18)
+    lot = np.repeat(np.arange(18), sizes)
+    frame = pd.DataFrame({"ys": strength[lot] + rng.normal(0, 0.12, len(lot)), "thickness": thickness[lot]})
+    y = 9 * forms.logistic((frame["ys"].to_numpy() - 215.7) / 5) + 4 * (thickness[lot] >= 0.70)
+    result = _diagnose(frame, y + rng.normal(0, 0.5, len(lot)), surrogate_std=0.5, inputs=("ys", "thickness"))
+    assert sorted(f.candidate.name for f in result.selected) == ["thickness", "ys"]  # before: the trend alone
