@@ -7,10 +7,11 @@ import pandas as pd
 import pytest
 
 from hybridtwin import diagnosis
-from hybridtwin.diagnosis import Candidate, Settings, best_fit, forms, ids, naming
+from hybridtwin.diagnosis import Candidate, Settings, best_fit, forms, ids, levels, naming
 from hybridtwin.diagnosis import fits as fitting
+from hybridtwin.diagnosis.ids import smooth_first
 from hybridtwin.diagnosis.profiles import Identity
-from hybridtwin.diagnosis.selection import Selection, smooth_first
+from hybridtwin.diagnosis.selection import Selection
 
 SETTINGS = Settings(folds=5, seed=0, interactions=False)
 
@@ -620,8 +621,8 @@ def test_the_spread_the_surrogate_error_gives_between_levels_is_its_chi_square_q
     assert ids.surrogate_spread(1.0, 80, 0.01) < ids.surrogate_spread(1.0, 21, 0.01)  # more levels, less chance
     labels = np.repeat(np.arange(10), 30)
     rng = np.random.default_rng(0)
-    assert ids.level_share(labels, rng.normal(size=10)[labels]) == pytest.approx(1.0)  # constant within a level
-    assert ids.level_share(labels, rng.normal(size=300)) < 0.1
+    assert levels.level_share(labels, rng.normal(size=10)[labels]) == pytest.approx(1.0)  # constant within a level
+    assert levels.level_share(labels, rng.normal(size=300)) < 0.1
 
 
 def test_coil_offsets_within_what_the_surrogate_error_gives_between_coils_are_not_named():
@@ -663,14 +664,14 @@ def _coils(n_coils: int, parts: int, seed: int):
 def test_a_column_an_id_holds_is_judged_over_its_levels_against_the_columns_it_holds_shuffled():
     rng, coil, candidates = _coils(16, 50, seed=3)
     group, thickness, strength, die_temp = candidates
-    assert [c.name for c in ids.held_columns(group, candidates)] == ["thickness", "strength"]
-    assert ids.level_chance_p(die_temp, group, rng.normal(size=len(coil)), candidates, seed=0, alpha=0.01) is None
+    assert [c.name for c in levels.held_columns(group, candidates)] == ["thickness", "strength"]
+    assert levels.level_chance_p(die_temp, group, rng.normal(size=len(coil)), candidates, seed=0, alpha=0.01) is None
     # a true per-coil effect: the level means lie on its form
     true = 3 * (thickness.values - 0.7) / 0.02 + rng.normal(0, 0.3, len(coil))
-    assert ids.level_chance_p(thickness, group, true, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
+    assert levels.level_chance_p(thickness, group, true, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
     # random coil offsets: over many plants the column fits them beyond chance at the level's rate only
     p_values = [
-        ids.level_chance_p(thickness, group, np.random.default_rng(s).normal(size=16)[coil], candidates, s, 0.01)
+        levels.level_chance_p(thickness, group, np.random.default_rng(s).normal(size=16)[coil], candidates, s, 0.01)
         for s in range(40)
     ]
     assert np.mean(np.array(p_values) < 0.05) <= 0.1
@@ -685,7 +686,7 @@ def test_the_level_shares_are_the_closed_forms_fitted_to_the_weighted_level_mean
         1 - np.sum((yy - forms.fit_form(name, xx, yy).predict(xx)) ** 2) / np.sum((yy - yy.mean()) ** 2)
         for name in ("linear", "quadratic")
     ]
-    assert ids.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(shares) - 1e-9
+    assert levels.level_fit_shares(x[None, :], means, counts.astype(float))[0] >= max(shares) - 1e-9
 
 
 def _exhaustive_step(x, means, counts) -> float:
@@ -712,11 +713,11 @@ def test_the_step_share_is_the_best_split_between_distinct_values():
     ):  # distinct values; ties (a setting per campaign)
         means = rng.normal(size=12)
         means = means - np.sum(weights * means)
-        assert ids.step_shares(x[None, :], means, weights)[0] == pytest.approx(_exhaustive_step(x, means, counts))
+        assert levels.step_shares(x[None, :], means, weights)[0] == pytest.approx(_exhaustive_step(x, means, counts))
     # levels that share a value are not split: the offsets change inside the second value's levels
     x, means = np.repeat([1.0, 2.0, 3.0, 4.0], 3), np.array([-1.0] * 4 + [3.0] * 8)
     means = means - np.sum(weights * means)
-    shared = ids.step_shares(x[None, :], means, weights)[0]
+    shared = levels.step_shares(x[None, :], means, weights)[0]
     assert shared == pytest.approx(_exhaustive_step(x, means, counts)) and shared < 0.95
 
 
@@ -763,7 +764,7 @@ def test_a_saturation_of_the_diagnosis_widths_at_an_inner_decile_fits_the_level_
     x = np.linspace(0.0, 10.0, 21)
     means = 1.0 / (1.0 + np.exp(-(x - np.quantile(x, 0.5)) / (0.08 * 10.0)))
     weights = np.full(21, 30.0)
-    assert ids.level_fit_shares(x[None, :], means, weights)[0] == pytest.approx(1.0)
+    assert levels.level_fit_shares(x[None, :], means, weights)[0] == pytest.approx(1.0)
     # neither a line, a parabola nor a step fits it whole
     xx, yy = np.repeat(x, 30), np.repeat(means, 30)
     for name in ("linear", "quadratic", "step"):
@@ -775,18 +776,18 @@ def test_the_level_shares_of_many_orderings_at_once_are_those_of_each_alone():
     rng = np.random.default_rng(1)
     x, means, weights = rng.normal(size=9), rng.normal(size=9), rng.integers(5, 60, 9).astype(float)
     orders = np.array([rng.permutation(9) for _ in range(50)])
-    together = ids.level_fit_shares(x[orders], means, weights)
-    alone = [ids.level_fit_shares(x[order][None, :], means, weights)[0] for order in orders]
+    together = levels.level_fit_shares(x[orders], means, weights)
+    alone = [levels.level_fit_shares(x[order][None, :], means, weights)[0] for order in orders]
     np.testing.assert_allclose(together, alone, rtol=1e-12)
 
 
 def test_an_id_of_too_few_levels_for_any_ordering_to_reach_alpha_says_nothing():
-    assert ids.min_levels(0.01) == 6 and ids.min_levels(0.05) == 5
+    assert levels.min_levels(0.01) == 6 and levels.min_levels(0.05) == 5
     rng, coil, candidates = _coils(5, 40, seed=2)
     group, thickness = candidates[0], candidates[1]
     perfect = 3 * (thickness.values - 0.7) / 0.02
-    assert ids.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.01) is None
-    assert ids.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.05) is not None
+    assert levels.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.01) is None
+    assert levels.level_chance_p(thickness, group, perfect, candidates, seed=0, alpha=0.05) is not None
 
 
 def test_a_column_is_judged_against_the_best_of_the_columns_the_id_holds():
@@ -794,8 +795,8 @@ def test_a_column_is_judged_against_the_best_of_the_columns_the_id_holds():
     rng, coil, candidates = _coils(16, 50, seed=3)
     group, thickness, strength = candidates[:3]
     y = (strength.values - 300) / 20 + rng.normal(0, 0.2, len(coil))
-    p_strength = ids.level_chance_p(strength, group, y, candidates, seed=0, alpha=0.01)
-    p_thickness = ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01)
+    p_strength = levels.level_chance_p(strength, group, y, candidates, seed=0, alpha=0.01)
+    p_thickness = levels.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01)
     assert p_strength == pytest.approx(1 / 200) and p_thickness > 0.02  # 0.035: not at alpha 0.01
 
 
@@ -813,12 +814,14 @@ def test_a_long_level_holds_one_draw_of_its_offset_as_a_short_one_does():
         Candidate.new("thickness", "input", thickness[lot], ("thickness",)),
     ]
     # weighted by parts, the three long lots outweigh the rest (p 0.38); each a draw of its offset, p 1/200
-    assert ids.level_chance_p(candidates[1], candidates[0], y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
-    weights = ids.level_mean_weights(lot, counts, y)
+    assert levels.level_chance_p(candidates[1], candidates[0], y, candidates, seed=0, alpha=0.01) == pytest.approx(
+        1 / 200
+    )
+    weights = levels.level_mean_weights(lot, counts, y)
     assert weights[0] / weights[-1] < 1.2  # 500 parts against 15: the offsets' variance dominates both
     # without offsets of their own, a level's mean weighs as its parts
     flat = rng.normal(0, 1.0, len(lot))
-    weights = ids.level_mean_weights(lot, counts, flat)
+    weights = levels.level_mean_weights(lot, counts, flat)
     assert weights[0] / weights[3] == pytest.approx(50, rel=0.3)
 
 
@@ -995,10 +998,10 @@ def test_a_column_beside_another_held_cause_is_judged_on_what_that_cause_leaves(
     group, thickness, strength = candidates[:3]
     y = 2.5 * forms.logistic((strength.values - 300) / 6) + 1.2 * (thickness.values > 0.7)
     y = y + rng.normal(0, 0.5, len(coil))
-    assert ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
+    assert levels.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
     # judged alone, the strength's share is noise to the thickness: no better than chance
-    monkeypatch.setattr(ids, "_beside_partner", lambda *args: None)
-    assert ids.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) > 0.3
+    monkeypatch.setattr(levels, "_beside_partner", lambda *args: None)
+    assert levels.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) > 0.3
 
 
 def test_two_held_columns_fit_random_coil_offsets_beyond_chance_at_no_more_than_the_level():
@@ -1006,7 +1009,7 @@ def test_two_held_columns_fit_random_coil_offsets_beyond_chance_at_no_more_than_
     for s in range(40):
         _, coil, candidates = _coils(16, 50, seed=100 + s)
         offsets = np.random.default_rng(s).normal(size=16)[coil]
-        p_values.append(ids.level_chance_p(candidates[1], candidates[0], offsets, candidates, s, 0.01))
+        p_values.append(levels.level_chance_p(candidates[1], candidates[0], offsets, candidates, s, 0.01))
     assert np.mean(np.array(p_values) < 0.05) <= 0.05
     assert np.median(p_values) > 0.3
 
@@ -1015,11 +1018,13 @@ def test_the_min_p_of_one_statistic_is_its_own_p_and_of_two_copies_the_same():
     shuffled = np.random.default_rng(0).uniform(size=199)
     for observed in (0.5, 0.99, 1.5):
         own = (1 + np.sum(shuffled >= observed)) / 200
-        assert ids.min_p([observed], [shuffled]) == pytest.approx(own)
-        assert ids.min_p([observed, observed], [shuffled, shuffled]) == pytest.approx(own)
+        assert levels.min_p([observed], [shuffled]) == pytest.approx(own)
+        assert levels.min_p([observed, observed], [shuffled, shuffled]) == pytest.approx(own)
     # a second, independent statistic costs: the smaller of two p-values is smaller by chance
     other = np.random.default_rng(1).uniform(size=199)
-    assert ids.min_p([0.9, 0.5], [shuffled, other]) > min(ids.min_p([0.9], [shuffled]), ids.min_p([0.5], [other]))
+    assert levels.min_p([0.9, 0.5], [shuffled, other]) > min(
+        levels.min_p([0.9], [shuffled]), levels.min_p([0.5], [other])
+    )
 
 
 def test_the_level_fit_values_are_the_form_whose_share_the_level_shares_report():
@@ -1028,9 +1033,9 @@ def test_the_level_fit_values_are_the_form_whose_share_the_level_shares_report()
         x, means, weights = rng.normal(size=n_levels), rng.normal(size=n_levels), rng.integers(1, 60, n_levels)
         x[:3] = x[3]  # ties: a setting shared by several coils
         w = weights / weights.sum()
-        fitted = ids.level_fit_values(x, means, weights.astype(float))
+        fitted = levels.level_fit_values(x, means, weights.astype(float))
         share = 1 - np.sum(w * (means - fitted) ** 2) / np.sum(w * (means - np.sum(w * means)) ** 2)
-        assert share == pytest.approx(ids.level_fit_shares(x[None, :], means, weights.astype(float))[0])
+        assert share == pytest.approx(levels.level_fit_shares(x[None, :], means, weights.astype(float))[0])
 
 
 def test_a_monotone_trend_that_took_up_a_second_per_lot_cause_gives_way_to_a_closed_form_and_that_cause():

@@ -28,14 +28,13 @@ from hybridtwin.diagnosis.candidates import Candidate, build_candidates
 from hybridtwin.diagnosis.causes import Term
 from hybridtwin.diagnosis.confounding import confounding
 from hybridtwin.diagnosis.fits import Fit, Rules
-from hybridtwin.diagnosis.ids import Proxy, held_columns, id_stands, level_chance_p
-from hybridtwin.diagnosis.naming import prefer_simpler, product_or_column
+from hybridtwin.diagnosis.ids import Proxy, id_stands, smooth_first
+from hybridtwin.diagnosis.levels import held_columns, level_chance_p
+from hybridtwin.diagnosis.naming import held_out_sum, prefer_simpler, product_or_column
 from hybridtwin.diagnosis.policy import (
-    ID_ACCOUNTED_SMOOTH_FIRST,
     MAX_CLOSED_FORM_PARAMS,
     REFINE_PASSES,
     SHARE_TOLERANCE,
-    SMOOTH_SHARE_OF_ID,
     TREND_POWER,
 )
 from hybridtwin.diagnosis.settings import Settings
@@ -142,7 +141,7 @@ class Selection:
 
     def _held_cause(self, named_id: Fit) -> Fit | None:
         """A column the id holds whose closed forms fit the id's level means beyond chance
-        (:func:`~hybridtwin.diagnosis.ids.level_chance_p`) and whose effect passes the margin: it goes before the
+        (:func:`~hybridtwin.diagnosis.levels.level_chance_p`) and whose effect passes the margin: it goes before the
         id, which is then judged on what it leaves. The rules of :func:`smooth_first` weigh a column's share against
         the id's, and an id of one parameter per level takes up every cause its levels carry at once: over 29
         coils a wear in the stroke counter explained 29% of the residual against the coil's 72%, yet fitted the
@@ -162,7 +161,7 @@ class Selection:
 
     def _by_chance(self, column: Fit, named_id: Fit) -> bool:
         """Whether ``column`` is one the id holds (constant within its levels) and fits the id's level means no
-        better than the columns it holds fit them shuffled (:func:`~hybridtwin.diagnosis.ids.level_chance_p`)."""
+        better than the columns it holds fit them shuffled (:func:`~hybridtwin.diagnosis.levels.level_chance_p`)."""
         settings = self.rules.settings
         p_value = level_chance_p(
             column.candidate, named_id.candidate, self.remaining, self.candidates, settings.seed, settings.alpha
@@ -437,26 +436,9 @@ class Selection:
         return named if self.rules.significant(named) else column
 
 
-def smooth_first(best: Fit, named_id: Fit, accounted: float, by_chance=lambda: False) -> bool:
-    """Whether a significant smooth cause goes before an id that stands: the smooth candidates account for
-    enough of the id's level differences, or the best is a column that explains most of what the id does;
-    never where ``by_chance()`` (asked only then) says the best is a column the id holds that fits its level means
-    no better than chance (a per-coil property's step fitted to random coil offsets)."""
-    column = best.candidate.kind != "interaction"
-    first = accounted >= ID_ACCOUNTED_SMOOTH_FIRST or (
-        column and best.explained_share >= SMOOTH_SHARE_OF_ID * named_id.explained_share
-    )
-    return first and not by_chance()
-
-
 def joint_share(fits: list[Fit], y, settings: Settings) -> float:
     """Held-out share of ``y`` that several terms explain together (backfitted on each fold's training rows)."""
-    oof = np.zeros_like(y)
-    for train, test in kfolds(len(y), settings.folds, settings.seed):
-        models, means = forms.backfit([f.candidate.values[train] for f in fits], [f.form.name for f in fits], y[train])
-        oof[test] = y[train].mean() + sum(
-            m.predict(f.candidate.values[test]) - c for m, f, c in zip(models, fits, means)
-        )
+    oof = held_out_sum(fits, kfolds(len(y), settings.folds, settings.seed), y)
     return float(1.0 - np.mean((y - oof) ** 2) / np.mean(y**2))
 
 
