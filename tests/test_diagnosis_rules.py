@@ -999,6 +999,10 @@ def test_a_column_beside_another_held_cause_is_judged_on_what_that_cause_leaves(
     y = 2.5 * forms.logistic((strength.values - 300) / 6) + 1.2 * (thickness.values > 0.7)
     y = y + rng.normal(0, 0.5, len(coil))
     assert levels.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) == pytest.approx(1 / 200)
+    # the partner is the held column that fits the means best, not a third one of no effect
+    means = np.bincount(coil, weights=y) / np.bincount(coil)
+    level_values = {c.name: c.values[::40] for c in candidates[1:3]} | {"width": rng.normal(1500, 5, 18)}
+    assert levels._beside_partner("thickness", level_values, means, np.ones(18))[0] == "strength"
     # judged alone, the strength's share is noise to the thickness: no better than chance
     monkeypatch.setattr(levels, "_beside_partner", lambda *args: None)
     assert levels.level_chance_p(thickness, group, y, candidates, seed=0, alpha=0.01) > 0.3
@@ -1029,13 +1033,24 @@ def test_the_min_p_of_one_statistic_is_its_own_p_and_of_two_copies_the_same():
 
 def test_the_level_fit_values_are_the_form_whose_share_the_level_shares_report():
     rng = np.random.default_rng(2)
+
+    def share(x, means, weights):
+        w = weights / weights.sum()
+        fitted = levels.level_fit_values(x, means, weights)
+        return 1 - np.sum(w * (means - fitted) ** 2) / np.sum(w * (means - np.sum(w * means)) ** 2)
+
     for n_levels in (7, 12, 25):
         x, means, weights = rng.normal(size=n_levels), rng.normal(size=n_levels), rng.integers(1, 60, n_levels)
         x[:3] = x[3]  # ties: a setting shared by several coils
-        w = weights / weights.sum()
-        fitted = levels.level_fit_values(x, means, weights.astype(float))
-        share = 1 - np.sum(w * (means - fitted) ** 2) / np.sum(w * (means - np.sum(w * means)) ** 2)
-        assert share == pytest.approx(levels.level_fit_shares(x[None, :], means, weights.astype(float))[0])
+        weights = weights.astype(float)
+        assert share(x, means, weights) == pytest.approx(levels.level_fit_shares(x[None, :], means, weights)[0])
+    # a saturation of the diagnosis' widths is fitted whole; a step with one level on a side is not a form
+    x, weights = np.linspace(0.0, 10.0, 15), np.full(15, 20.0)
+    saturation = forms.logistic((x - np.quantile(x, 0.5)) / (forms.SIGMOID_WIDTH_SHARES[0] * 10.0))
+    np.testing.assert_allclose(levels.level_fit_values(x, saturation, weights), saturation, atol=1e-9)
+    lone = (x == x.max()).astype(float)
+    assert share(x, lone, weights) == pytest.approx(levels.level_fit_shares(x[None, :], lone, weights)[0])
+    assert share(x, lone, weights) < 0.9
 
 
 def test_a_monotone_trend_that_took_up_a_second_per_lot_cause_gives_way_to_a_closed_form_and_that_cause():
