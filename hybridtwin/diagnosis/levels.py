@@ -58,13 +58,18 @@ def level_fit_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> n
     off_line = square - _line(zc, square, weights)
     best = linear + _weighted_r2(off_line, means - _line(zc, means, weights), weights) * (1 - linear)
     best = np.maximum(best, step_shares(x, means, weights))
-    # a saturation: logistic bases at the inner deciles of the values, of the diagnosis' widths
-    thresholds = np.quantile(x[0], np.linspace(0.1, 0.9, 9))
-    span = np.ptp(x[0]) or 1.0
-    for width in SIGMOID_WIDTH_SHARES:
-        basis = logistic((x[:, None, :] - thresholds[None, :, None]) / (width * span))
+    thresholds, scales = saturation_grid(x[0])  # the values are the same in every ordering
+    for scale in scales:
+        basis = logistic((x[:, None, :] - thresholds[None, :, None]) / scale)
         best = np.maximum(best, np.max(_weighted_r2(basis, means, weights), axis=1))
     return best
+
+
+def saturation_grid(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The saturations the level test fits: thresholds at the inner deciles of ``values``, scales of the
+    diagnosis' widths (shares of the values' range)."""
+    span = np.ptp(values) or 1.0
+    return np.quantile(values, np.linspace(0.1, 0.9, 9)), np.asarray(SIGMOID_WIDTH_SHARES) * span
 
 
 def step_shares(x: np.ndarray, means: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -201,6 +206,6 @@ def _level_bases(x: np.ndarray) -> list[np.ndarray]:
     bases = [z[:, None], np.column_stack([z, z**2])]
     xs = np.sort(x)
     bases += [(x >= xs[i + 1]).astype(float)[:, None] for i in range(1, len(x) - 2) if xs[i + 1] > xs[i]]
-    thresholds, span = np.quantile(x, np.linspace(0.1, 0.9, 9)), np.ptp(x) or 1.0
-    bases += [logistic((x - t) / (w * span))[:, None] for w in SIGMOID_WIDTH_SHARES for t in thresholds]
+    thresholds, scales = saturation_grid(x)
+    bases += [logistic((x - t) / scale)[:, None] for scale in scales for t in thresholds]
     return bases

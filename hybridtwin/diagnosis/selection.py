@@ -292,9 +292,11 @@ class Selection:
         uncertainty, which then explained 4% of what was left, not significant; given the yield strength's
         closed form the step explained 27% (p 3e-7), and the two together 0.90 of the residual held out against
         the trend's 0.83 (structures draw 40114)."""
-        for j, fit in enumerate(self.chosen):
-            if fit.candidate.kind == "group" or fit.form.n_params <= MAX_CLOSED_FORM_PARAMS:
-                continue
+        many = [j for j, fit in enumerate(self.chosen) if fit.form.name == forms.Monotone.name]
+        settings = self.rules.settings
+        current = joint_share(self.chosen, self.y, settings) if many else 0.0  # what the trend explains now
+        for j in many:
+            fit = self.chosen[j]
             again = self.rules.best_fit(fit.candidate, self._partial_residual(j))
             closed = [
                 alt
@@ -308,8 +310,7 @@ class Selection:
             added = trial.next_cause()
             if added is None:
                 continue
-            settings = self.rules.settings
-            if joint_share(trial.chosen + [added], self.y, settings) > joint_share(self.chosen, self.y, settings):
+            if joint_share(trial.chosen + [added], self.y, settings) > current:
                 trial.chosen.append(added)
                 trial.refit()
                 self._adopt(trial)
