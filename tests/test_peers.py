@@ -128,6 +128,38 @@ def test_cokriging_searches_with_smts_kernel_values_and_finds_smts_hyperparamete
     ]
 
 
+def test_cokrigings_likelihood_is_smts_bit_for_bit(case):
+    from smt.surrogate_models.krg_based.likelihood_eval import LikelihoodEvaluator
+
+    fast, _ = cokriging._mfk_class()
+    compared = []
+
+    def same(ours, theirs):
+        np.testing.assert_array_equal(ours[0], theirs[0])
+        assert ours[1].keys() == theirs[1].keys()
+        for key in ours[1]:
+            np.testing.assert_array_equal(ours[1][key], theirs[1][key])
+        compared.append(ours[0])
+
+    class Compared(fast):
+        """Each likelihood of the search beside SMT's evaluator's; at a level's first step, also far ones."""
+
+        def _reduced_likelihood_function(self, theta):
+            ours = super()._reduced_likelihood_function(theta)
+            same(ours, LikelihoodEvaluator(self).evaluate(theta))
+            if len(compared) == 1 or self._lower[0] is not getattr(self, "_far_checked", None):
+                self._far_checked = self._lower[0]
+                for far in (np.full(len(theta), 20.0), np.r_[np.full(len(theta) - 1, 1e-6), 0.0]):
+                    same(super()._reduced_likelihood_function(far), LikelihoodEvaluator(self).evaluate(far))
+            return ours
+
+    mfk = Compared(**CoKriging(n_start=1)._options(seed=1))
+    mfk.set_training_values(np.asarray(case["doe"], float), np.asarray(case["y_doe"], float)[:, None], name=0)
+    mfk.set_training_values(np.asarray(case["parts"], float)[:80], np.asarray(case["y_parts"], float)[:80, None])
+    mfk.train()
+    assert len(compared) > 50 and -np.inf in compared  # both levels searched; SMT's failure value compared too
+
+
 def test_cokriging_searches_as_smt_documents_and_more_starts_find_no_poorer_optimum(case):
     from hybridtwin.io import config
 

@@ -93,3 +93,43 @@ def test_a_gp_of_given_hyperparameters_factorizes_its_kernel_once_with_the_same_
         np.testing.assert_array_equal(ours, theirs)
     assert np.isnan(fixed.log_marginal_likelihood_value_)  # not computed in fit: the second factorization
     assert fixed.log_marginal_likelihood() == pytest.approx(plain.log_marginal_likelihood_value_, rel=1e-12)
+
+
+def test_the_cached_matern_is_scikit_learns_bit_for_bit():
+    from sklearn.gaussian_process.kernels import Matern
+
+    from hybridtwin.paper.surrogate import CachedMatern
+
+    rng = np.random.default_rng(4)
+    first, second = rng.normal(size=(60, 5)), rng.normal(size=(40, 5))
+    # two length scales on the same rows (the cached differences), then other rows (differences anew)
+    for X, scales in ((first, np.full(5, 3.0)), (first, rng.uniform(0.1, 9, 5)), (second, rng.uniform(0.1, 9, 5))):
+        ours, theirs = (
+            CachedMatern(scales, nu=2.5)(X, eval_gradient=True),
+            Matern(scales, nu=2.5)(X, eval_gradient=True),
+        )
+        for a, b in zip(ours, theirs):
+            np.testing.assert_array_equal(a, b)
+    isotropic = CachedMatern(2.0, nu=2.5)(first, eval_gradient=True)  # scikit-learn's own path
+    np.testing.assert_array_equal(isotropic[1], Matern(2.0, nu=2.5)(first, eval_gradient=True)[1])
+    assert repr(CachedMatern(np.full(2, 3.0), nu=2.5)) == repr(Matern(np.full(2, 3.0), nu=2.5))
+    CachedMatern.forget()
+    assert CachedMatern._differences == (None, None)
+
+
+def test_the_surrogates_search_finds_what_scikit_learns_kernel_finds(doe30):
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
+
+    from hybridtwin.paper.surrogate import CachedMatern
+
+    X, y = doe30
+    ours = GPRSurrogate(n_restarts=1).fit(X, y)
+    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(3, 3.0), (1e-2, 1e4), nu=2.5) + WhiteKernel(
+        1e-2, (1e-6, 1.0)
+    )
+    plain = GaussianProcessRegressor(kernel, normalize_y=True, n_restarts_optimizer=1, random_state=0)
+    plain.fit(ours.standardizer_.transform(X), np.asarray(y, float))
+    np.testing.assert_array_equal(ours.gpr_.kernel_.theta, plain.kernel_.theta)
+    assert repr(ours.gpr_.kernel_) == repr(plain.kernel_)
+    assert CachedMatern._differences == (None, None)  # a fit lets go of its rows' differences

@@ -16,8 +16,8 @@ JSON with the trained AR1 model's predictor (:func:`ar1_state`), which :func:`ar
 reloaded model predicts without SMT, its import or a refit.
 
 The searches evaluate SMT's squared-exponential kernel with the same additions in the same order over a
-column-major copy of the distances (:func:`column_sum`): the same likelihoods, bit for bit, in three quarters of
-the time.
+column-major copy of the distances (:func:`column_sum`), and SMT's likelihood with its correlation matrix built in
+one pass (:func:`reduced_likelihood`): the same likelihoods, bit for bit, in about two thirds of the time.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from __future__ import annotations
 from functools import partial
 
 import numpy as np
+from scipy import linalg
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -94,6 +95,16 @@ def _mfk_class():
 
     class FastMFK(MFK):
         _correlation_class = {**MFK._correlation_class, "squar_exp": SquaredExponential}
+        _lower = (None, None)  # (SMT's pairs of training points, the flat positions of their lower-triangle cells)
+
+        def _reduced_likelihood_function(self, theta):
+            if not self.is_continuous or self.options["is_ri"] or self.options["use_het_noise"]:
+                return super()._reduced_likelihood_function(theta)
+            pairs, positions = self._lower
+            if pairs is not self.ij:
+                pairs, positions = self.ij, self.ij[:, 1] * self.nt + self.ij[:, 0]
+                self._lower = (pairs, positions)
+            return reduced_likelihood(self, theta, positions)
 
     class FixedMFK(FastMFK):
         """SMT's MFK trained with given hyperparameters: one likelihood evaluation per level, no search."""
@@ -111,6 +122,56 @@ def _mfk_class():
             return value, par, theta
 
     return FastMFK, FixedMFK
+
+
+def reduced_likelihood(model, theta, lower: np.ndarray):
+    """SMT's reduced likelihood (``LikelihoodEvaluator.evaluate``: a continuous kriging, no reinterpolation, one
+    noise level) with the same values bit for bit, the correlation matrix built in one pass: its diagonal and its
+    lower triangle (``lower``: the flat positions of SMT's pairs of points there), the only part LAPACK's lower
+    Cholesky reads. SMT's fill of both triangles by pairs of indices took as long as the factorization."""
+    nugget, noise, tmp_var = model.options["nugget"], model.noise0, theta
+    if model._eval_noise:
+        nugget = 0
+        theta, noise = tmp_var[0:-1], tmp_var[-1]
+    model.corr.theta = theta
+    try:
+        r = model.corr(model.D).reshape(-1, 1)
+    except FloatingPointError:
+        return -np.inf, {}
+    if np.isnan(r).any():
+        return -np.inf, {}
+    R = np.zeros((model.nt, model.nt))
+    R.flat[:: model.nt + 1] = 1.0 + nugget + noise
+    np.put(R, lower, r[:, 0])
+    p, q = model._get_pq()
+    try:
+        C = linalg.cholesky(R, lower=True)
+    except (linalg.LinAlgError, ValueError):
+        return -np.inf, {}
+    # from here SMT's generalized least squares, line for line
+    Ft = linalg.solve_triangular(C, model.F, lower=True)
+    Q, G = linalg.qr(Ft, mode="economic")
+    sv = linalg.svd(G, compute_uv=False)
+    if sv[-1] / sv[0] < 1e-10:
+        return model._likelihood_evaluator.evaluate(tmp_var)  # SMT's own handling of an ill-conditioned trend
+    Yt = linalg.solve_triangular(C, model.y_norma, lower=True)
+    beta = linalg.solve_triangular(G, np.dot(Q.T, Yt))
+    rho = Yt - np.dot(Ft, beta)
+    detR = (np.diag(C) ** (2.0 / model.nt)).prod()
+    sigma2 = (rho**2.0).sum(axis=0) / (model.nt - p - q)
+    value = -(model.nt - p - q) * np.log10(sigma2.sum()) - model.nt * np.log10(detR)
+    par = {
+        "sigma2": sigma2 * model.y_std**2.0,
+        "beta": beta,
+        "gamma": linalg.solve_triangular(C.T, rho),
+        "C": C,
+        "Ft": Ft,
+        "G": G,
+        "Q": Q,
+    }
+    value += model._reduced_log_prior(theta)
+    model._likelihood_evaluator._update_best_iteration(value, tmp_var)
+    return min(value, 1e15), par
 
 
 def ar1_state(mfk) -> dict:
