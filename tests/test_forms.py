@@ -63,6 +63,38 @@ def test_the_sigmoids_start_is_exact_on_a_few_points_too():
     assert forms.sigmoid_grid_start(x, y) == pytest.approx((1.0, 3.0, np.median(x), 0.5 * spread), abs=1e-9)
 
 
+def _full_grid_start(x, y):
+    """The grid's best point weighed on every row, by plain least squares (the start's definition)."""
+    _, _, spread = forms.sigmoid_range(x)
+    best = None
+    for width in spread * np.array(forms.SIGMOID_WIDTH_SHARES):
+        for threshold in np.percentile(x, np.linspace(5, 95, 19)):
+            design = np.column_stack([np.ones_like(x), 1.0 / (1.0 + np.exp(-(x - threshold) / width))])
+            coefficients = np.linalg.lstsq(design, y, rcond=None)[0]
+            error = np.sum((y - design @ coefficients) ** 2)
+            if best is None or error < best[0] - 1e-9:
+                best = (error, *coefficients, threshold, width)
+    return best[1:]
+
+
+@pytest.mark.parametrize("n_rows,seed", [(2000, 5), (8000, 3), (8000, 5)])
+def test_the_sigmoids_start_is_the_grids_best_on_every_row(n_rows, seed):
+    # a parabola: the two sides' saturations nearly tie, and on 8,000 rows (seed 5) every 4th row alone picks the
+    # other side; its best ten points, weighed on every row, hold the full grid's choice
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=n_rows)
+    y = 0.3 * x**2 + rng.normal(size=n_rows)
+    assert forms.sigmoid_grid_start(x, y) == pytest.approx(_full_grid_start(x, y), abs=1e-9)
+
+
+def test_the_sigmoids_jacobian_takes_the_logistic_of_its_own_point():
+    theta, other, scale = np.array([0.5, -2.0, 0.45, np.log(0.1)]), np.array([0.1, 1.0, 0.6, np.log(0.3)]), SPREAD
+    curve = forms.SigmoidCurve(X, np.sin(X), scale)
+    curve.residuals(other)  # the last point it evaluated is another
+    np.testing.assert_array_equal(curve.jacobian(theta), forms.sigmoid_jacobian(theta, X, np.sin(X), scale))
+    np.testing.assert_array_equal(curve.residuals(theta), forms.sigmoid_residuals(theta, X, np.sin(X), scale))
+
+
 def test_a_sigmoid_of_a_setting_that_never_changed_is_flat_at_the_mean():
     form = forms.Sigmoid().fit(np.full(20, 3.0), np.arange(20.0))
     assert form.amplitude == 0.0 and form.predict([3.0]) == pytest.approx([9.5])
