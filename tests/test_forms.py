@@ -91,8 +91,8 @@ def test_the_sigmoids_jacobian_takes_the_logistic_of_its_own_point():
     theta, other, scale = np.array([0.5, -2.0, 0.45, np.log(0.1)]), np.array([0.1, 1.0, 0.6, np.log(0.3)]), SPREAD
     curve = forms.SigmoidCurve(X, np.sin(X), scale)
     curve.residuals(other)  # the last point it evaluated is another
-    np.testing.assert_array_equal(curve.jacobian(theta), forms.sigmoid_jacobian(theta, X, np.sin(X), scale))
-    np.testing.assert_array_equal(curve.residuals(theta), forms.sigmoid_residuals(theta, X, np.sin(X), scale))
+    np.testing.assert_array_equal(curve.jacobian(theta), forms.SigmoidCurve(X, np.sin(X), scale).jacobian(theta))
+    np.testing.assert_array_equal(curve.residuals(theta), forms.SigmoidCurve(X, np.sin(X), scale).residuals(theta))
 
 
 def test_a_sigmoid_of_a_setting_that_never_changed_is_flat_at_the_mean():
@@ -113,16 +113,12 @@ def test_a_sigmoid_near_the_low_end_is_found_there():
 
 
 def test_the_sigmoids_jacobian_is_its_residuals_derivative():
-    theta, scale = np.array([0.5, -2.0, 0.45, np.log(0.1)]), SPREAD
-    y = np.sin(X)
+    theta = np.array([0.5, -2.0, 0.45, np.log(0.1)])
+    curve = forms.SigmoidCurve(X, np.sin(X), SPREAD)
     numeric = np.column_stack(
-        [
-            (forms.sigmoid_residuals(theta + step, X, y, scale) - forms.sigmoid_residuals(theta - step, X, y, scale))
-            / 2e-6
-            for step in np.eye(4) * 1e-6
-        ]
+        [(curve.residuals(theta + step) - curve.residuals(theta - step)) / 2e-6 for step in np.eye(4) * 1e-6]
     )
-    np.testing.assert_allclose(forms.sigmoid_jacobian(theta, X, y, scale), numeric, atol=1e-6)
+    np.testing.assert_allclose(curve.jacobian(theta), numeric, atol=1e-6)
 
 
 @pytest.mark.parametrize("y,threshold", [(np.exp(0.5 * X), 9.8 + SPREAD / 2), (np.log1p(X), 0.2 - SPREAD / 2)])

@@ -216,16 +216,6 @@ class SigmoidCurve:
         return np.column_stack([np.ones_like(self.x), s, -ds * self.scale / width, -ds * z])
 
 
-def sigmoid_residuals(theta, x, y, scale):
-    """Sigmoid minus data at theta (:class:`SigmoidCurve`)."""
-    return SigmoidCurve(x, y, scale).residuals(theta)
-
-
-def sigmoid_jacobian(theta, x, y, scale):
-    """The derivatives of :func:`sigmoid_residuals` by theta, one column each."""
-    return SigmoidCurve(x, y, scale).jacobian(theta)
-
-
 class Step(Form):
     """intercept + jump * [x >= threshold], the best split found exactly by sorting."""
 

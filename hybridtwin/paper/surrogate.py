@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel, _check_length_scale
+from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 from sklearn.utils.validation import check_is_fitted
 
 from hybridtwin.crossval import rows_of
@@ -45,44 +45,6 @@ class FixedKernelGPR(GaussianProcessRegressor):
             self._fitting = False
 
 
-class CachedMatern(Matern):
-    """scikit-learn's Matern kernel, the same values bit for bit, whose gradient (Matern 5/2, one length scale per
-    input) keeps the inputs' pairwise squared differences from call to call: a likelihood search evaluates it on
-    the same training rows at every step (a fresh kernel each time, so the copy is kept by the class), and
-    computing them was about half of each gradient. Its repr is scikit-learn's, as the model files have it."""
-
-    _differences = (None, None)  # (the rows, their pairwise squared differences): the last rows seen
-
-    def __call__(self, X, Y=None, eval_gradient=False):
-        anisotropic = self.anisotropic and not self.hyperparameter_length_scale.fixed
-        if not (eval_gradient and Y is None and self.nu == 2.5 and anisotropic):
-            return super().__call__(X, Y, eval_gradient)
-        K = super().__call__(X)  # scikit-learn computes the kernel alike with or without the gradient
-        # scikit-learn's gradient with the same operations in the same order (the products in place)
-        D = self._squared_differences(np.atleast_2d(X)) / (_check_length_scale(X, self.length_scale) ** 2)
-        tmp = np.sqrt(5 * D.sum(-1))[..., np.newaxis]
-        gradient = np.multiply(5.0 / 3.0, D, out=D)
-        gradient *= tmp + 1
-        gradient *= np.exp(-tmp)
-        return K, gradient
-
-    @classmethod
-    def _squared_differences(cls, X: np.ndarray) -> np.ndarray:
-        rows, squared = cls._differences  # one read: another thread may replace the pair
-        if rows is not X:
-            squared = (X[:, np.newaxis, :] - X[np.newaxis, :, :]) ** 2
-            cls._differences = (X, squared)
-        return squared
-
-    @classmethod
-    def forget(cls) -> None:
-        """Let go of the last rows' differences (rows x rows x inputs floats) once a search is over."""
-        cls._differences = (None, None)
-
-    def __repr__(self):
-        return "Matern" + super().__repr__().removeprefix(type(self).__name__)
-
-
 class GPRSurrogate(RegressorMixin, BaseEstimator):
     """Inputs are standardized with the statistics of the training (DoE) rows."""
 
@@ -104,7 +66,7 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
 
     def _kernel(self, n_features: int):
         # normalize_y scales the target to unit variance, so these bounds are in those units
-        return ConstantKernel(1.0, (1e-3, 1e3)) * CachedMatern(
+        return ConstantKernel(1.0, (1e-3, 1e3)) * Matern(
             length_scale=np.full(n_features, 3.0), length_scale_bounds=self.length_scale_bounds, nu=self.nu
         ) + WhiteKernel(self.noise_start, self.noise_bounds)
 
@@ -118,10 +80,7 @@ class GPRSurrogate(RegressorMixin, BaseEstimator):
             n_restarts_optimizer=self.n_restarts,
             random_state=self.random_state,
         )
-        try:
-            self.gpr_.fit(self.standardizer_.transform(X), np.asarray(y, float))
-        finally:
-            CachedMatern.forget()
+        self.gpr_.fit(self.standardizer_.transform(X), np.asarray(y, float))
         return self
 
     def predict(self, X, return_std: bool = False):
