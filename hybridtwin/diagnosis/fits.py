@@ -138,7 +138,7 @@ def best_fit(candidate: Candidate, y, settings: Settings, min_effect: float = 0.
         # a form held flat beyond its values (a parabola) is also judged held out by its own continuation
         carried = held_out_worst(name, candidate, y, settings, continued=True) if _holds_flat(full) else oof
         shape_mse = float(np.mean((y - carried) ** 2))
-        fitted = full.own_effect(candidate.values)
+        fitted = full.predict(candidate.values)
         fits.append(
             Fit(
                 candidate,

@@ -52,10 +52,6 @@ class Form:
     def _predict(self, x):
         raise NotImplementedError
 
-    def own_effect(self, x):
-        """What the term itself varies by on rows ``x``: its size, against the surrogate's uncertainty."""
-        return self.predict(x)
-
     def continued(self, x):
         """The form's own continuation beyond the values it was fitted on (its held-out prediction): the
         function itself, where :meth:`predict` holds a fitted curvature flat."""
@@ -326,16 +322,6 @@ class Product(Form):
         a, b = np.asarray(x, float).T
         return self._design(a, b) @ np.asarray(self.coefficients, float)
 
-    def own_effect(self, x):
-        """What the a*b term adds to the two columns' slopes on rows ``x`` (the part of a*b that no line in a and b
-        fits): what the columns do apart is theirs, and a product sized by their slopes claimed an interaction the
-        data did not show (two slopes below the surrogate's uncertainty passed it together). Never larger than the
-        whole term: the two parts are orthogonal."""
-        a, b = np.asarray(x, float).T
-        design = self._design(a, b)
-        slopes = design[:, :3] @ np.linalg.lstsq(design[:, :3], design[:, 3], rcond=None)[0]
-        return self.coefficients[3] * (design[:, 3] - slopes)
-
     def describe(self, column, unit, x_unit=""):
         return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
 
@@ -350,9 +336,6 @@ class Additive(Product):
 
     def _design(self, a, b):
         return super()._design(a, b)[:, :3]
-
-    def own_effect(self, x):
-        return self.predict(x)
 
     def describe(self, column, unit, x_unit=""):
         first, second = column.split("*")
