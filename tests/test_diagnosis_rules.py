@@ -90,12 +90,17 @@ def test_several_smooth_quantities_below_the_margin_account_for_an_id_together()
     assert names[0] == ids.INPUT_SURFACE and "ambient_c" in names[1:] and set(names[1:]) <= {"ambient_c", "m1", "m2"}
 
 
+def _two_columns_and_their_product(rng, n):
+    """Two uniform inputs ``a`` and ``b``, their candidates by name, and their product's candidate."""
+    a, b = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+    candidates = {"a": Candidate.new("a", "input", a, ("a",)), "b": Candidate.new("b", "input", b, ("b",))}
+    return a, b, candidates, Candidate.new("a*b", "interaction", np.column_stack([a, b]), ("a", "b"))
+
+
 def test_a_product_stands_only_where_it_beats_the_sum_of_its_columns():
     rng = np.random.default_rng(6)
     n = 4000
-    a, b = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
-    candidates = {"a": Candidate.new("a", "input", a, ("a",)), "b": Candidate.new("b", "input", b, ("b",))}
-    pair = Candidate.new("a*b", "interaction", np.column_stack([a, b]), ("a", "b"))
+    a, b, candidates, pair = _two_columns_and_their_product(rng, n)
     rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=0.1)
     tilt = 1.0 * a + 0.3 * b**2 + rng.normal(0, 0.5, n)  # a tilt in a, a bend in b: no interaction
     tilt -= tilt.mean()
@@ -104,6 +109,38 @@ def test_a_product_stands_only_where_it_beats_the_sum_of_its_columns():
     product = 1.0 * a * b + 0.3 * a + rng.normal(0, 0.5, n)
     product -= product.mean()
     assert naming.product_or_column(rules.best_fit(pair, product), candidates, product, rules).candidate is pair
+
+
+@pytest.mark.parametrize(
+    "slopes, min_effect",
+    [((0.4, 0.25), 0.1), ((0.3, 0.0), 1.0)],
+    ids=["two slopes, each significant", "one slope, within the surrogate's uncertainty"],
+)
+def test_a_product_no_better_than_its_columns_apart_is_never_named(slopes, min_effect):
+    # two causes are named as two, and a column too small to name alone does not stand in for a product
+    rng = np.random.default_rng(7)
+    n = 4000
+    a, b, candidates, pair = _two_columns_and_their_product(rng, n)
+    rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=min_effect)
+    y = slopes[0] * a + slopes[1] * b + rng.normal(0, 0.5, n)
+    y -= y.mean()
+    named = naming.product_or_column(rules.best_fit(pair, y), candidates, y, rules)
+    assert named.candidate.name == "a"
+
+
+@pytest.mark.parametrize("min_effect, named", [(0.05, "a*b"), (0.3, "b")])
+def test_a_product_its_columns_apart_do_no_better_than_stands_on_an_interaction_of_its_own(min_effect, named):
+    # 400 parts: the product's gain over its columns apart is not significant (p 0.13 and 0.07), and its own
+    # a*b term (0.18 std) decides against the surrogate's uncertainty; else the better column (b, by chance)
+    rng = np.random.default_rng(1)
+    n = 400
+    a, b, candidates, pair = _two_columns_and_their_product(rng, n)
+    rules = fitting.Rules(SETTINGS, n_tests=3, min_effect=min_effect)
+    y = 0.4 * a * b + rng.normal(0, 1.0, n)
+    y -= y.mean()
+    best = rules.best_fit(pair, y)
+    assert best.form.name == "product"
+    assert naming.product_or_column(best, candidates, y, rules).candidate.name == named
 
 
 def test_elapsed_time_ranks_behind_a_logged_quantity_that_predicts_the_same():

@@ -247,6 +247,22 @@ def test_product_and_additive_fit_exact_data():
     says(additive.describe("a*b", "mm"), "additive", "+2 mm", "of a", "-1 mm", "of b")
 
 
+def test_a_products_own_interaction_is_its_a_b_term_beyond_the_columns_slopes():
+    rng = np.random.default_rng(0)
+    ab = rng.uniform(0, 1, (400, 2))
+    a, b = ab.T
+    slopes = forms.Product().fit(ab, 2.0 * a - 1.0 * b)
+    np.testing.assert_allclose(slopes.own_interaction(ab), 0.0, atol=1e-9)
+    product = forms.Product().fit(ab, 2.0 * a - 1.0 * b + 3.0 * a * b)
+    own = product.own_interaction(ab)
+    # what no line in a and b fits: orthogonal to them, and never more than the whole term
+    design = np.column_stack([np.ones_like(a), a, b])
+    np.testing.assert_allclose(design.T @ own, 0.0, atol=1e-8)
+    np.testing.assert_allclose(own, product.predict(ab) - design @ np.linalg.lstsq(design, product.predict(ab))[0])
+    assert 0.2 < np.std(own) < np.std(product.predict(ab))
+    assert not np.any(forms.Additive().fit(ab, 2.0 * a).own_interaction(ab))
+
+
 @pytest.mark.parametrize(
     "name,x,y",
     [

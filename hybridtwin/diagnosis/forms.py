@@ -322,6 +322,14 @@ class Product(Form):
         a, b = np.asarray(x, float).T
         return self._design(a, b) @ np.asarray(self.coefficients, float)
 
+    def own_interaction(self, x):
+        """The a*b term beyond the two columns' slopes on rows ``x``: the part of a*b that no line in a and b fits,
+        times its coefficient."""
+        a, b = np.asarray(x, float).T
+        design = Product._design(self, a, b)
+        slopes = design[:, :3] @ np.linalg.lstsq(design[:, :3], design[:, 3], rcond=None)[0]
+        return self.coefficients[3] * (design[:, 3] - slopes)
+
     def describe(self, column, unit, x_unit=""):
         return f"interaction: {self.coefficients[3]:+.4g} {unit} per unit of ({column.replace('*', ' x ')})"
 
@@ -336,6 +344,9 @@ class Additive(Product):
 
     def _design(self, a, b):
         return super()._design(a, b)[:, :3]
+
+    def own_interaction(self, x):
+        return np.zeros(len(x))
 
     def describe(self, column, unit, x_unit=""):
         first, second = column.split("*")

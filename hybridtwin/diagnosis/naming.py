@@ -122,14 +122,16 @@ def held_out_sum(columns: list[Fit], splits, y) -> np.ndarray:
 
 
 def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rules) -> Fit:
-    """A product of two columns stands only where it predicts significantly better held out than the sum of its
-    two columns, each in its own best form, given the causes already in (``y``), along each column's values.
+    """A product of two columns stands where it predicts significantly better held out than the sum of its two
+    columns, each in its own best form, given the causes already in (``y``), along each column's values.
 
     A separate mild tilt in one column (yield strength, with tensile strength beside it) is taken up by the
     product's own linear terms; the product's bilinear term then only needs to fit the surrogate's error along
-    the other column to out-score the single column. Otherwise the better single column is named (if it is
-    significant), with its tilt as its own form. Where the product and the two columns apart predict alike and
-    the second column adds to the first, the product (one cause in place of two) is kept.
+    the other column to out-score the single column. Otherwise the better single column is named, with its tilt
+    as its own form, even where it is not significant alone: two slopes within the surrogate's uncertainty and a
+    sliver of curvature are no product (the caller then weighs the columns on their own). Only an a*b term of
+    its own larger than the surrogate's uncertainty (``rules.min_effect``), which the two columns apart predict
+    no better than, keeps a product its columns' weak shapes held level with.
     """
     if best.candidate.kind != "interaction":
         return best
@@ -137,18 +139,15 @@ def product_or_column(best: Fit, candidates: dict[str, Candidate], y, rules: Rul
     if len(columns) < 2:
         return best
     settings = rules.settings
-    single = min(columns, key=lambda fit: (fit.score, fit.candidate.name))
+    own_interaction = float(np.std(best.form.own_interaction(best.candidate.values)))
     for splits in fold_sets(best.candidate, settings):
         product = held_out(best.form.name, best.candidate.values, y, splits)
         both = held_out_sum(columns, splits, y)
         if block_p_value(y, product, settings.n_blocks, reference=both) < settings.alpha:
             continue
-        # no better than the two columns apart: one of them alone, unless the two apart are no better than
-        # the product either and the other column adds to the first (then the product is one cause for two)
         apart_better = block_p_value(y, both, settings.n_blocks, reference=product) < settings.alpha
-        second_adds = block_p_value(y, both, settings.n_blocks, reference=held_out_sum([single], splits, y))
-        if (apart_better or second_adds >= settings.alpha) and rules.significant(single):
-            return single
+        if apart_better or own_interaction <= rules.min_effect:
+            return min(columns, key=lambda fit: (fit.score, fit.candidate.name))
     return best
 
 
