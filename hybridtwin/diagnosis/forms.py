@@ -326,7 +326,7 @@ class Product(Form):
         """The a*b term beyond the two columns' slopes on rows ``x``: the part of a*b that no line in a and b fits,
         times its coefficient."""
         a, b = np.asarray(x, float).T
-        design = Product._design(self, a, b)
+        design = self._design(a, b)
         slopes = design[:, :3] @ np.linalg.lstsq(design[:, :3], design[:, 3], rcond=None)[0]
         return self.coefficients[3] * (design[:, 3] - slopes)
 
