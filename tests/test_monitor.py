@@ -152,6 +152,39 @@ def test_a_shift_that_every_new_regime_carries_alarms_on_the_regimes_levels():
     assert result.alarmed_by == chart.LEVEL and 3000 < result.alarm_at < 4000 and result.start_at % 100 == 0
 
 
+def test_regimes_that_spread_further_than_the_logs_widen_the_level_chart_and_a_shift_they_carry_still_alarms():
+    rng = np.random.default_rng(31)
+    group = np.arange(10_000) // 200  # 50 regimes
+    spread = rng.normal(0, 1.0, 50)  # in control, but three times the log's spread of levels (0.3)
+    residual = spread[group] + rng.normal(0, 1.0, 10_000)
+    held, pooled = (chart.Constants({}, 1.0, 1.0, 0.3, 1e9, 8.0, regimes) for regimes in (0, 20))
+    assert chart.regime_chart(residual, residual, np.full(10_000, "r"), group, held).alarm_at is not None
+    assert chart.regime_chart(residual, residual, np.full(10_000, "r"), group, pooled).alarm_at is None
+    shifted = residual + 3.0 * (group >= 25)  # from a regime's start on: the levels' chart alone can see it
+    found = chart.regime_chart(shifted, shifted, np.full(10_000, "r"), group, pooled)
+    assert found.alarmed_by == chart.LEVEL and 5000 < found.alarm_at < 5000 + 5 * 200
+
+
+def test_the_spread_of_levels_pools_the_logs_regimes_with_those_known_before_and_never_falls_below_the_logs():
+    constants = chart.Constants({}, 1.0, 1.0, 0.5, 13.0, 8.0, level_regimes=4)
+    means, counts = np.array([3.0, 0.0, 0.0, 2.0]), np.full(4, 100)
+    at = np.array([400, 100, 200, 300])  # known in another order than listed: 0.0, 0.0, 2.0, then 3.0
+
+    def pooled(known):  # the log's 4 regimes at 0.5**2 and the spread about their mean of those known before
+        excess = np.var(known, ddof=1) - 1.0 / 100 if len(known) > 1 else 0.0
+        degrees = max(len(known) - 1, 0)
+        return np.sqrt(max(0.25, (4 * 0.25 + degrees * excess) / (4 + degrees)))
+
+    expected = [pooled([0.0, 0.0, 2.0]), pooled([]), pooled([0.0]), pooled([0.0, 0.0])]
+    assert expected[0] > 0.6 and expected[1:] == [0.5] * 3  # two levels alike: less than the log's, its floor
+    np.testing.assert_allclose(chart.between_levels(means, counts, at, constants), expected)
+    # a shift every regime of the batch shares is no spread: the chart sums the levels against the log's
+    np.testing.assert_allclose(chart.between_levels(np.full(4, 5.0), counts, at, constants), 0.5)
+    unpooled = chart.Constants({}, 1.0, 1.0, 0.5, 13.0, 8.0)  # models stored before: the log's spread alone
+    np.testing.assert_allclose(chart.between_levels(means, counts, at, unpooled), 0.5)
+    assert chart.Constants.from_dict({k: v for k, v in constants.to_dict().items() if k != "level_regimes"}) == unpooled
+
+
 def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor():
     rng = np.random.default_rng(4)
     residual, group = _campaigns(rng, 8000, 200, 3.0)
@@ -164,6 +197,7 @@ def test_the_limits_come_from_the_logs_own_regimes_and_are_never_below_the_floor
         0.95, abs=0.3
     )
     assert fitted.within_limit == calibration.FLOOR_WITHIN  # independent noise inside the regimes: the floor holds
+    assert fitted.level_regimes == 40  # the weight of the log's spread of levels beside a batch's own regimes
     # a jump inside regimes (a campaign change the log's columns do not mark) raises the limit
     jumped = residual + np.where((np.arange(8000) % 200) >= 100, 3.0, 0.0)
     _, raised, _, _ = calibration.constants(

@@ -142,7 +142,8 @@ def constants(
     within = chart.within_steps(residual, region, group, provisional, raw)
     level = chart.level_steps(z, group, provisional, levels)
     h_within, h_level = limits(within, level, starts, seed)
-    return found, chart.Constants(per_region, pooled, level_within, between, h_within, h_level), group, starts
+    fitted = chart.Constants(per_region, pooled, level_within, between, h_within, h_level, len(levels[0]))
+    return found, fitted, group, starts
 
 
 def slopes(log, causes, residual, z, group, starts) -> dict:
