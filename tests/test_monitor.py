@@ -167,16 +167,19 @@ def test_regimes_that_spread_further_than_the_logs_widen_the_level_chart_and_a_s
 
 def test_the_spread_of_levels_pools_the_logs_regimes_with_those_known_before_and_never_falls_below_the_logs():
     constants = chart.Constants({}, 1.0, 1.0, 0.5, 13.0, 8.0, level_regimes=4)
-    means, counts = np.array([3.0, 0.0, 0.0, 2.0]), np.full(4, 100)
-    at = np.array([400, 100, 200, 300])  # known in another order than listed: 0.0, 0.0, 2.0, then 3.0
+    means, counts = np.array([3.0, 0.0, 1.5, 2.0]), np.array([100, 20, 50, 8])
+    at = np.array([400, 100, 200, 300])  # known in another order than listed: 0.0, 1.5, 2.0, then 3.0
 
     def pooled(known):  # the log's 4 regimes at 0.5**2 and the spread about their mean of those known before
-        excess = np.var(known, ddof=1) - 1.0 / 100 if len(known) > 1 else 0.0
+        levels, scatter = np.array([m for m, _ in known]), np.array([1.0 / n for _, n in known])
         degrees = max(len(known) - 1, 0)
-        return np.sqrt(max(0.25, (4 * 0.25 + degrees * excess) / (4 + degrees)))
+        # the sum of squares about the plain mean holds (1 - 1/k) of each level's scatter, whatever the counts
+        excess = np.sum((levels - levels.mean()) ** 2) - scatter.sum() * (1 - 1 / len(known)) if degrees else 0.0
+        return np.sqrt(max(0.25, (4 * 0.25 + excess) / (4 + degrees)))
 
-    expected = [pooled([0.0, 0.0, 2.0]), pooled([]), pooled([0.0]), pooled([0.0, 0.0])]
-    assert expected[0] > 0.6 and expected[1:] == [0.5] * 3  # two levels alike: less than the log's, its floor
+    first, second, third = (0.0, 20), (1.5, 50), (2.0, 8)
+    expected = [pooled([first, second, third]), pooled([]), pooled([first]), pooled([first, second])]
+    assert expected[1:3] == [0.5, 0.5] and min(expected[0], expected[3]) > 0.6  # above the log's where spread
     np.testing.assert_allclose(chart.between_levels(means, counts, at, constants), expected)
     # a shift every regime of the batch shares is no spread: the chart sums the levels against the log's
     np.testing.assert_allclose(chart.between_levels(np.full(4, 5.0), counts, at, constants), 0.5)

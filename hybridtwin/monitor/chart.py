@@ -188,8 +188,10 @@ def between_levels(means, counts, at, constants: Constants) -> np.ndarray:
     regime to regime than over the log's regimes: on the structures generator's plants fresh in-control regimes
     spread 2 to 5 times as far as the log's, in the support too, and a chart held to the log's spread alarmed on 6
     of 42 in-control batches (benchmarks/monitor_bank.py, seed 40). Each regime counts once, the log's and the
-    batch's alike. The batch's spread is taken about its own mean, so that a shift its regimes share (a change
-    before the batch began) does not widen it; the chart still sums the levels themselves."""
+    batch's alike (the log's weight is its regime count; the batch's, its regimes known before less one; the
+    levels come from :func:`regime_levels`, finite). The batch's spread is taken about its own mean, so that a
+    shift its regimes share (a change before the batch began) does not widen it; the chart still sums the levels
+    themselves."""
     means, counts, at = (np.asarray(values, float) for values in (means, counts, at))
     log_variance = constants.level_between**2
     if not constants.level_regimes or not len(means):
