@@ -184,13 +184,13 @@ def between_levels(means, counts, at, constants: Constants) -> np.ndarray:
     its ``level_regimes`` regimes) pooled with the spread about their mean of the batch's regimes whose level was
     known before it, and never below the log's.
 
-    A later period runs settings and coils the log did not, where the models' settled error differs more from
-    regime to regime than over the log's regimes: on the structures generator's plants fresh in-control regimes
-    spread 2 to 5 times as far as the log's, in the support too, and a chart held to the log's spread alarmed on 6
-    of 42 in-control batches (benchmarks/monitor_bank.py, seed 40). Each regime counts once, the log's and the
-    batch's alike (the log's weight is its regime count; the batch's, its regimes known before less one; the
-    levels come from :func:`regime_levels`, finite). The batch's spread is taken about its own mean, so that a
-    shift its regimes share (a change before the batch began) does not widen it; the chart still sums the levels
+    A later period runs settings and coils the log did not, where the models' settled error differs more from regime
+    to regime than over the log's regimes: on four of the structures generator's seed-40 plants fresh in-control
+    regimes spread 2 to 5 times as far as the log's, in the support too, and a chart held to the log's spread
+    alarmed on 6 of 42 in-control batches (benchmarks/monitor_bank.py, seed 40). Each regime counts once, the log's
+    and the batch's alike (the log's weight is its regime count; the batch's, its regimes known before less one; the
+    levels come from :func:`regime_levels`, finite). The batch's spread is taken about its own mean, so that a shift
+    its regimes share (a change before the batch began) does not widen it; the chart still sums the levels
     themselves."""
     means, counts, at = (np.asarray(values, float) for values in (means, counts, at))
     log_variance = constants.level_between**2
@@ -201,10 +201,11 @@ def between_levels(means, counts, at, constants: Constants) -> np.ndarray:
     sums, squares, scatter = (
         np.r_[0.0, np.cumsum(values[order])[:-1]] for values in (means, means**2, constants.level_within**2 / counts)
     )
-    # the sum of squares about the mean of those known before, less what the scatter inside them gives
+    # the sum of squares about the mean of those known before, less what the scatter inside them gives (0 for
+    # fewer than two)
     about_mean = squares - sums**2 / np.maximum(known, 1) - scatter * (known - 1) / np.maximum(known, 1)
     degrees = np.maximum(known - 1, 0)
-    pooled = (constants.level_regimes * log_variance + about_mean * (known > 1)) / (constants.level_regimes + degrees)
+    pooled = (constants.level_regimes * log_variance + about_mean) / (constants.level_regimes + degrees)
     between = np.empty(len(means))
     between[order] = np.sqrt(np.maximum(pooled, log_variance))
     return between
