@@ -120,27 +120,40 @@ def test_outside_range_is_in_the_inputs_own_unit_and_named():
     assert regions.outside_range(frame, doe_range)["shim_mm"].tolist() == pytest.approx([0.0, 0.15, 0.0])
 
 
-def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach_and_verdicts(monkeypatch):
+def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach(monkeypatch):
     rng = np.random.default_rng(3)
     frame = pd.DataFrame({"a": rng.normal(0, 2, 2500), "b": rng.normal(0, 1, 2500)})
     doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
-    calibration = (rng.random(2500) < 0.5) & (np.arange(2500) >= 700)  # the first part calibrates nothing
-    whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range, calibration)
+    whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range)
     monkeypatch.setattr(files, "ROWS_AT_ONCE", 700)  # four parts, the last short
-    beyond, extremes = coverage.beyond_range(frame, doe_range, calibration)
+    beyond, extremes = coverage.beyond_range(frame, doe_range)
     amounts = regions.outside_range(frame, doe_range)
     assert np.array_equal(beyond, (amounts != 0).any(axis=1).to_numpy()) and np.array_equal(beyond, whole_beyond)
-    assert extremes.min().tolist() == amounts[calibration].min().tolist() == whole_extremes.min().tolist()
-    assert extremes.max().tolist() == amounts[calibration].max().tolist()
+    assert extremes.min().tolist() == amounts.min().tolist() == whole_extremes.min().tolist()
+    assert extremes.max().tolist() == amounts.max().tolist() == whole_extremes.max().tolist()
+
+
+def test_the_logs_latest_block_reaches_as_far_as_its_parts_though_it_only_tests_the_intervals():
+    # the plant warms up: t climbs beyond the DoE's 10 over the log, furthest in its last block, a test block
+    table, inputs, _ = _predictions_table(n=4000, seed=4)
+    n, blocks = len(table), 8
+    t = 10.0 + 3.0 * np.arange(n) / n
+    latest = np.arange(n) * blocks // n == blocks - 1
+    assert not regions.calibration_rows(n, blocks)[latest].any()
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": blocks}
+    calibrated = coverage.calibrate(table, pd.DataFrame({"t": t}), {"t": (0.0, 10.0)}, 1.0, settings, 0)
+    reach = calibrated.intervals.reach["t"]
+    assert reach[1] == pytest.approx(t.max() - 10.0)  # the latest part's setting, not the last calibration block's
+    distance = table["knn_distance"].to_numpy()
+    assert calibrated.intervals.max_distance == pytest.approx(distance[~table["in_support"].to_numpy()].max())
+    # the plant's settings as it runs now are judged, with an interval; a setting further than the log's, not
     from hybridtwin.answers.trust import Reach, trust_levels
 
-    inside, distance = ~beyond & (rng.random(2500) < 0.8), rng.random(2500)
-    # the reach of the first two parts' calibration rows only (the first has none): rows of later parts lie past it
-    reach = Reach.of(extremes.iloc[:4], distance[calibration], ~inside[calibration], 0.5, doe_range)
-    verdicts = coverage.trust_by_parts(frame, doe_range, inside, distance, reach)
-    assert np.array_equal(verdicts, trust_levels(inside, amounts, distance, reach))
-    assert {"validated", "calibrated", "extrapolation"} <= set(verdicts)
-    assert len({id(word) for word in verdicts}) == 3  # three shared words, not a string per row (a long log)
+    doe_range = {"t": (0.0, 10.0)}
+    reach_now = Reach(1.0, calibrated.intervals.max_distance, calibrated.intervals.reach, doe_range, {})
+    now = regions.outside_range(pd.DataFrame({"t": [t[-1], t[-1] + 0.5]}), doe_range)
+    verdicts = trust_levels(np.zeros(2, bool), now, np.full(2, 1.5), reach_now)
+    assert verdicts.tolist() == ["calibrated", "extrapolation"]
 
 
 def test_distance_bins_hold_enough_calibration_rows():
@@ -363,10 +376,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
         "out_of_support_3",
         "all",
     }
-    # test rows beyond every calibrated part (further, or further beyond the DoE's range) get no interval
-    t = inputs["t"].to_numpy()
-    usable = ~((~inside & (distance > distance[calibration & ~inside].max())) | (t - 10 > (t[calibration] - 10).max()))
-    assert not usable.all()
+    # every logged part lies within the log's own reach: each test row is scored
     # out of the support, widened where the corrections disagree more than on the calibration parts
     corrections = ("pred_hybrid_oof", "pred_extended_oof", "pred_extended_hybrid_oof")
     spread = np.std(table[list(corrections)].to_numpy(), axis=1)
@@ -374,7 +384,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
         for model in ("hybrid", "surrogate"):
             prediction = honest[model]
             cal = calibration & (region == name)
-            test = ~calibration & (region == name) & usable
+            test = ~calibration & (region == name)
             errors = np.abs(measured[cal] - prediction[cal])
             half = _half_width(errors, level)
             if name != "in_support":
@@ -403,7 +413,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     assert rows.loc[("out_of_support_3", "hybrid", "by_region"), "region_label"] == (
         f"out of support, distance above {edges[1]:.3g}"
     )
-    assert rows.loc[("all", "hybrid", "by_region"), "n_test"] == (~calibration & usable).sum()
+    assert rows.loc[("all", "hybrid", "by_region"), "n_test"] == (~calibration).sum()
     # the recommended model: its flag on its own row and on the 'recommended' rows only
     flagged = calibrated.table[calibrated.table["recommended"]]
     for name, model in calibrated.intervals.recommended.items():

@@ -29,7 +29,7 @@ from hybridtwin.answers.regions import (
     region_label,
     same_word,
 )
-from hybridtwin.answers.trust import EXTRAPOLATION, Reach, trust_levels
+from hybridtwin.answers.trust import Reach
 from hybridtwin.io.files import in_support
 from hybridtwin.metrics import rmse
 from hybridtwin.models.registry import RECOMMENDED, RECOMMENDED_COLUMN
@@ -71,7 +71,6 @@ def coverage_table(
     level: float,
     truth=None,
     seed: int = 0,
-    usable=None,
     fitted: RegionIntervals | None = None,
 ) -> pd.DataFrame:
     """prediction_intervals.csv: on the test rows, per region and model, coverage, mean width and RMSE.
@@ -91,7 +90,7 @@ def coverage_table(
         if method != "by_region" or fitted is None:
             fitted = RegionIntervals.fit(measured, honest, labels, calibration, method_edges, seed=seed)
         methods[method] = (fitted, labels, fitted.with_stack(honest, labels))
-    scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed, usable)
+    scored = Scored(measured, None if truth is None else np.asarray(truth, float), level, seed)
     test = ~calibration
     rows = []
     for name in [*methods["by_region"][0].regions, "all"]:
@@ -142,14 +141,11 @@ class Scored:
     truth: np.ndarray | None
     level: float
     seed: int
-    usable: np.ndarray | None = None  # the rows the predictor gives an interval (not trust's extrapolation)
 
     def row(self, fitted: tuple, region_rows: np.ndarray, model: str) -> dict | None:
         """Coverage (with its 95% Clopper-Pearson interval), width and RMSE on a seeded sample of the rows where
         the model has a value (None: none)."""
         intervals, labels, predictions = fitted
-        if self.usable is not None:
-            region_rows = region_rows[self.usable[region_rows]]
         # a model is sampled among the rows it has a value for (a peer predicts a sample of a long log)
         valued = region_rows if model == RECOMMENDED else region_rows[np.isfinite(predictions[model][region_rows])]
         idx = subsample(valued, MAX_TEST_ROWS, self.seed)
@@ -179,9 +175,10 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
     return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
-        "model that predicted a part saw its period), models never trained on the row outside it; rows beyond "
-        "every calibrated part (trust: extrapolation) get no interval and are not scored; coverage of the measured "
-        "value, with its 95% Clopper-Pearson interval; "
+        "model that predicted a part saw its period), models never trained on the row outside it; every test row "
+        "is scored, those further from the DoE than every calibration part with their region's interval (the "
+        "answers call them calibrated: the test rows tested it there); coverage of the measured value, with its 95% "
+        "Clopper-Pearson interval; "
         "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended); "
         "recalibrated: the predictor's region there is chosen and calibrated on the test rows too (the gate's rows "
         "beyond a DoE range: its interval only), the table being the tested interval's"
@@ -246,17 +243,17 @@ def calibrate(
     inside = in_support(predictions)
     distance = predictions["knn_distance"].to_numpy(float)
     calibration = calibration_rows(len(predictions), settings["blocks"])
-    beyond, extremes = beyond_range(inputs, doe_range, calibration)
+    beyond, extremes = beyond_range(inputs, doe_range)
     least = max(MIN_CALIBRATION_ROWS, min_calibration_rows(level))
     edges = distance_edges(distance[calibration & ~inside], settings["distance_bins"], least)
     region = Regions.of(inside, beyond, distance, edges, np.sum(calibration & inside & beyond) >= least)
     honest = honest_predictions(predictions)
     measured = predictions["measured"].to_numpy(float)
-    reach = Reach.of(extremes, distance[calibration], ~inside[calibration], threshold, doe_range, units)
+    # how far the log's parts reach, test blocks too: the latest block, where the plant runs now, is one of them
+    reach = Reach.of(extremes, distance, ~inside, threshold, doe_range, units)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
-    # a second pass over the log's distances: the verdicts need the reach, which needs every calibration row
-    usable = trust_by_parts(inputs, doe_range, inside, distance, reach) != EXTRAPOLATION
-    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, usable, fitted)
+    # every logged part lies within the reach: each test part is scored
+    table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, fitted)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model
         for name, model in zip(table["region"], table["model"])
@@ -270,31 +267,21 @@ def calibrate(
     if not short:
         return Calibration(fitted, table, region, calibration, with_stack)
     # those regions' model and interval from their test parts too; the table stays the tested ones'
-    also = ~calibration & usable & np.isin(region.interval, list(short))
+    also = ~calibration & np.isin(region.interval, list(short))
     refitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also)
     refitted.recalibrated = short
     return Calibration(refitted, table, region, calibration, refitted.with_stack(honest, region), (fitted, with_stack))
 
 
-def beyond_range(inputs: pd.DataFrame, doe_range: dict, calibration) -> tuple[np.ndarray, pd.DataFrame]:
-    """Which rows lie beyond a DoE range, and the calibration rows' smallest and largest distance beyond each
-    range (what :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part
-    log (1 GB) are never held whole."""
+def beyond_range(inputs: pd.DataFrame, doe_range: dict) -> tuple[np.ndarray, pd.DataFrame]:
+    """Which rows lie beyond a DoE range, and the rows' smallest and largest distance beyond each range (what
+    :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part log (1 GB) are
+    never held whole."""
     beyond, extremes = np.zeros(len(inputs), bool), []
     for rows, amounts in outside_range_by_parts(inputs, doe_range):
         beyond[rows] = (amounts != 0).any(axis=1).to_numpy()
-        calibrating = amounts[calibration[rows]]
-        extremes += [calibrating.min(), calibrating.max()]
+        extremes += [amounts.min(), amounts.max()]
     return beyond, pd.DataFrame(extremes, columns=list(doe_range))
-
-
-def trust_by_parts(inputs: pd.DataFrame, doe_range: dict, inside, distance, reach: Reach) -> np.ndarray:
-    """:func:`~hybridtwin.answers.trust.trust_levels` of every row, a million rows at a time."""
-    verdicts = [
-        trust_levels(inside[rows], amounts, distance[rows], reach)
-        for rows, amounts in outside_range_by_parts(inputs, doe_range)
-    ]
-    return np.concatenate(verdicts) if verdicts else np.empty(0, object)
 
 
 def best_on_test(measured, honest: dict[str, np.ndarray], choice, calibration, fitted: RegionIntervals) -> dict:

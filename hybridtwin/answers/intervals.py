@@ -221,7 +221,8 @@ class RegionIntervals:
         reach=None,
         also: np.ndarray | None = None,
     ) -> "RegionIntervals":
-        """``reach``: what calibrated the intervals (:class:`trust.Reach`), stored for the trust verdicts;
+        """``reach``: how far the logged parts that calibrated and tested the intervals lie (:class:`trust.Reach`),
+        stored for the trust verdicts;
         ``also``: rows beyond the calibration rows (the test parts of a region whose interval fell short on them,
         :func:`~hybridtwin.answers.coverage.short_regions`) that calibrate their region's interval too, and choose
         its model and stack where the region chooses its own (out of the support; not the gate's parts beyond a

@@ -3,9 +3,9 @@
 - ``validated``: in the support and inside every DoE range, and like the logged production: the simulations back
   the setting, and the residual models learnt from production parts like it;
 - ``calibrated``: outside the support (or beyond a DoE range inside the gate), but no further from the
-  simulations than production parts whose errors calibrated the interval: the interval was checked there;
-- ``extrapolation``: further than every calibrated part, or beyond a DoE range by more than the calibrated
-  parts were, or unlike every logged production part as no period of the log was unlike the rest
+  simulations than production parts whose errors calibrated or tested the interval: the interval was checked there;
+- ``extrapolation``: further than every logged part, or beyond a DoE range by more than the logged parts
+  were, or unlike every logged production part as no period of the log was unlike the rest
   (:mod:`.novelty`; inside the support too, where the simulations back the setting but the correction of them
   was never learnt). Nothing checked an interval there: the answer has none (``pred_lower``,
   ``pred_upper`` empty), and the reason names the input and how far it lies beyond the simulations.
@@ -26,8 +26,9 @@ TRUST = (VALIDATED, CALIBRATED, EXTRAPOLATION)
 
 @dataclass(frozen=True)
 class Reach:
-    """What calibrated the intervals: the support's threshold, the furthest kNN distance of a calibration part,
-    and per input how far below the DoE's minimum and above its maximum calibration parts were (<= 0, >= 0)."""
+    """What calibrated and tested the intervals: the support's threshold, the furthest kNN distance of a logged part
+    (calibration and test blocks alike), and per input how far below the DoE's minimum and above its maximum logged
+    parts were (<= 0, >= 0)."""
 
     threshold: float
     max_distance: float | None
@@ -38,8 +39,8 @@ class Reach:
 
     @classmethod
     def of(cls, beyond: pd.DataFrame, distance, outside, threshold, doe_range, units=None) -> "Reach":
-        """From the calibration parts' signed distances beyond the DoE's ranges (:func:`regions.outside_range`)
-        and kNN distances; ``outside``: which of them lie out of the support."""
+        """From the logged parts' signed distances beyond the DoE's ranges (:func:`regions.outside_range`) and kNN
+        distances; ``outside``: which of them lie out of the support."""
         distance, outside = np.asarray(distance, float), np.asarray(outside, bool)
         furthest = float(distance[outside].max()) if outside.any() else None
         reach = {name: (min(0.0, float(beyond[name].min())), max(0.0, float(beyond[name].max()))) for name in beyond}
@@ -66,7 +67,7 @@ def _levels(in_support, beyond: pd.DataFrame, distance, reach: Reach, novelty=No
     low = np.array([reach.beyond[name][0] for name in reach.beyond])
     high = np.array([reach.beyond[name][1] for name in reach.beyond])
     past_reach = (amounts < low - 1e-12) | (amounts > high + 1e-12)
-    # no calibration part out of the support: no interval was ever checked there
+    # no logged part out of the support: no interval was ever checked there
     too_far = ~inside & (True if reach.max_distance is None else distance > reach.max_distance)
     in_range = ~(amounts != 0).any(axis=1)
     novel = np.zeros(len(distance), bool)
@@ -136,24 +137,25 @@ def _calibrated(inside, amounts, distance, reach: Reach) -> np.ndarray:
     beyond = (amounts != 0).any(axis=1)
     text[beyond] = text[beyond] + "; " + _beyond(amounts[beyond], _worst_input(amounts[beyond], reach), reach)
     furthest = f" (kNN distance up to {reach.max_distance:.3g})" if reach.max_distance is not None else ""
-    return text + "; production parts this far calibrated the interval" + furthest
+    return text + "; production parts this far calibrated or tested the interval" + furthest
 
 
 def _extrapolated(past_reach, amounts, distance, reach: Reach) -> np.ndarray:
-    """The input furthest past what calibrated the interval, or the distance when no input is."""
+    """The input furthest past what calibrated or tested the interval, or the distance when no input is."""
     scaled = np.where(past_reach, np.abs(amounts) / _spans(reach), -np.inf)
     worst = np.argmax(scaled, axis=1)
     by_input = (
         _beyond(amounts, worst, reach)
         + " ("
         + numbers(np.abs(amounts[np.arange(len(worst)), worst]) / _spans(reach)[worst])
-        + " times the DoE's range beyond it); no production part this far calibrated the interval: no interval"
+        + " times the DoE's range beyond it); no production part this far calibrated or tested the interval: "
+        + "no interval"
     )
     furthest = f"up to {reach.max_distance:.3g}" if reach.max_distance is not None else "none out of the support"
     by_distance = (
         "kNN distance "
         + numbers(distance)
-        + f" to the simulations is beyond every production part that calibrated the interval ({furthest}): "
+        + f" to the simulations is beyond every production part that calibrated or tested the interval ({furthest}): "
         + "no interval"
     )
     return np.where(past_reach.any(axis=1), by_input, by_distance).astype(object)
