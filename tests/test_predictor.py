@@ -200,6 +200,7 @@ def test_base_takes_the_other_inputs_from_a_row_of_the_users_own(tmp_path, parts
         (["sweep", "--vary", "die_temp_c=20:80:4", "--set", "die_temp_c=30"], ["the sweep varies it"]),
         (["sweep", "--vary", "die_temp_c=80:20:4"], ["LOW (80) must be below HIGH (20)"]),
         (["sweep", "--vary", "die_temp_c=20:80:1"], ["N (1) must be between 2 and 10000"]),
+        (["sweep", "--vary", "die_temp_c=20:80"], ["write NAME=LOW:HIGH:N", "--vary die_temp_c=LOW:HIGH:N"]),
     ],
     ids=[
         "typo",
@@ -212,6 +213,7 @@ def test_base_takes_the_other_inputs_from_a_row_of_the_users_own(tmp_path, parts
         "set-varied",
         "reversed",
         "one-value",
+        "no-count",
     ],
 )
 def test_the_commands_mistakes_get_one_line(capsys, argv, words):

@@ -80,7 +80,9 @@ def sweep_values(text: str, inputs) -> tuple[str, np.ndarray]:
     """``--vary NAME=LOW:HIGH:N``: the input and its N values from LOW to HIGH."""
     match = SWEEP.match(text.strip())
     if not match:
-        raise InputError(f"--vary {text!r}: write NAME=LOW:HIGH:N, for example --vary {list(inputs)[0]}=20:110:46")
+        given = text.partition("=")[0].strip()
+        name = given if given in list(inputs) else list(inputs)[0]
+        raise InputError(f"--vary {text!r}: write NAME=LOW:HIGH:N, N values from LOW to HIGH: --vary {name}=LOW:HIGH:N")
     name = known_name(match["name"], inputs, f"--vary {text!r}:")
     low, high = number(match["low"], f"--vary {text!r}"), number(match["high"], f"--vary {text!r}")
     n = int(match["n"])
