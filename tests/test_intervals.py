@@ -124,36 +124,60 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach(monkeypat
     rng = np.random.default_rng(3)
     frame = pd.DataFrame({"a": rng.normal(0, 2, 2500), "b": rng.normal(0, 1, 2500)})
     doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
-    whole_beyond, whole_extremes = coverage.beyond_range(frame, doe_range)
+    counted = (rng.random(2500) < 0.5) & (np.arange(2500) >= 700)  # the first part counts nothing
+    whole_beyond = coverage.beyond_range(frame, doe_range)
+    whole_extremes = coverage.range_extremes(frame, doe_range, counted)
     monkeypatch.setattr(files, "ROWS_AT_ONCE", 700)  # four parts, the last short
-    beyond, extremes = coverage.beyond_range(frame, doe_range)
+    beyond, extremes = coverage.beyond_range(frame, doe_range), coverage.range_extremes(frame, doe_range, counted)
     amounts = regions.outside_range(frame, doe_range)
     assert np.array_equal(beyond, (amounts != 0).any(axis=1).to_numpy()) and np.array_equal(beyond, whole_beyond)
-    assert extremes.min().tolist() == amounts.min().tolist() == whole_extremes.min().tolist()
-    assert extremes.max().tolist() == amounts.max().tolist() == whole_extremes.max().tolist()
+    assert extremes.min().tolist() == amounts[counted].min().tolist() == whole_extremes.min().tolist()
+    assert extremes.max().tolist() == amounts[counted].max().tolist() == whole_extremes.max().tolist()
 
 
-def test_the_logs_latest_block_reaches_as_far_as_its_parts_though_it_only_tests_the_intervals():
-    # the plant warms up: t climbs beyond the DoE's 10 over the log, furthest in its last block, a test block
-    table, inputs, _ = _predictions_table(n=4000, seed=4)
-    n, blocks = len(table), 8
+def _warming_plant(n=4000, blocks=8, seed=4):
+    """A plant that warms up: t climbs beyond the DoE's 10 over the log, furthest in its last block (a test block),
+    whose parts out of the support also lie further from the DoE than any before."""
+    table, _, _ = _predictions_table(n=n, seed=seed)
     t = 10.0 + 3.0 * np.arange(n) / n
     latest = np.arange(n) * blocks // n == blocks - 1
     assert not regions.calibration_rows(n, blocks)[latest].any()
-    settings = {"level": 0.8, "distance_bins": 3, "blocks": blocks}
-    calibrated = coverage.calibrate(table, pd.DataFrame({"t": t}), {"t": (0.0, 10.0)}, 1.0, settings, 0)
-    reach = calibrated.intervals.reach["t"]
-    assert reach[1] == pytest.approx(t.max() - 10.0)  # the latest part's setting, not the last calibration block's
-    distance = table["knn_distance"].to_numpy()
-    assert calibrated.intervals.max_distance == pytest.approx(distance[~table["in_support"].to_numpy()].max())
+    table.loc[latest & ~table["in_support"].to_numpy(), "knn_distance"] += 0.5
+    return table, pd.DataFrame({"t": t}), latest
+
+
+def test_the_logs_latest_block_reaches_as_far_as_its_parts_though_it_only_tests_the_intervals():
+    table, inputs, latest = _warming_plant()
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": 8}
+    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0)
+    t, distance = inputs["t"].to_numpy(), table["knn_distance"].to_numpy()
+    outside = ~table["in_support"].to_numpy()
+    # the latest part's setting and the latest block's distance, not the last calibration block's
+    assert calibrated.intervals.reach["t"][1] == pytest.approx(t.max() - 10.0)
+    assert calibrated.intervals.max_distance == pytest.approx(distance[outside].max())
+    assert distance[latest & outside].max() > distance[~latest & outside].max()
     # the plant's settings as it runs now are judged, with an interval; a setting further than the log's, not
     from hybridtwin.answers.trust import Reach, trust_levels
 
     doe_range = {"t": (0.0, 10.0)}
-    reach_now = Reach(1.0, calibrated.intervals.max_distance, calibrated.intervals.reach, doe_range, {})
-    now = regions.outside_range(pd.DataFrame({"t": [t[-1], t[-1] + 0.5]}), doe_range)
-    verdicts = trust_levels(np.zeros(2, bool), now, np.full(2, 1.5), reach_now)
-    assert verdicts.tolist() == ["calibrated", "extrapolation"]
+    reach = Reach(1.0, calibrated.intervals.max_distance, calibrated.intervals.reach, doe_range, {})
+    asked = regions.outside_range(pd.DataFrame({"t": [t[-1], t[-1], t[-1] + 0.5]}), doe_range)
+    furthest = distance[outside].max()
+    verdicts = trust_levels(np.zeros(3, bool), asked, np.array([furthest, furthest + 0.1, 1.5]), reach)
+    assert verdicts.tolist() == ["calibrated", "extrapolation", "extrapolation"]
+
+
+def test_a_region_no_calibration_part_lies_in_reaches_nothing():
+    # every calibration block in the support; only the latest block, a test block, leaves it: no interval was
+    # calibrated out of the support, so its parts are no reach (an answer there is an extrapolation)
+    table, inputs, latest = _warming_plant()
+    table["in_support"] = ~latest
+    table.loc[~latest, "knn_distance"] = np.minimum(table.loc[~latest, "knn_distance"], 0.9)
+    inputs["t"] = np.where(latest, inputs["t"], 5.0)
+    settings = {"level": 0.8, "distance_bins": 3, "blocks": 8}
+    calibrated = coverage.calibrate(table, inputs, {"t": (0.0, 10.0)}, 1.0, settings, 0)
+    assert calibrated.intervals.regions == ["in_support"]
+    assert calibrated.intervals.max_distance is None and calibrated.intervals.reach["t"] == (0.0, 0.0)
 
 
 def test_distance_bins_hold_enough_calibration_rows():
@@ -429,7 +453,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
             for m in ("surrogate", "hybrid_gated", "hybrid", "extended", "extended_hybrid")
         }
         assert [m for m in ranking if m != "stack"] == sorted(scores, key=scores.get), name
-    assert calibrated.intervals.max_distance == pytest.approx(distance[outside].max())
+    assert calibrated.intervals.max_distance == pytest.approx(distance[~inside].max())  # test rows too
     assert calibrated.table["evaluated_on"].str.endswith("against the demo's noise-free plant").all()
     assert rows.loc[("out_of_support_2", "hybrid", "by_region"), "region_label"] == (
         f"out of support, distance {edges[0]:.3g} to {edges[1]:.3g}"
@@ -441,7 +465,7 @@ def test_calibrate_by_hand_regions_honest_predictions_and_the_table():
     assert labels["out_of_support_1"] == "out of support (every distance)"
     assert labels["all"] == "all production rows"
     assert "coverage_truth" not in one_bin and "rmse_truth_test" not in one_bin
-    says(one_bin["evaluated_on"].iloc[0], "test rows", "odd blocks", "even blocks", "out of period", "extrapolation")
+    says(one_bin["evaluated_on"].iloc[0], "test rows", "odd blocks", "even blocks", "out of period", "calibrated")
 
 
 def test_the_stack_is_cross_fitted_on_each_regions_calibration_rows_by_hand():

@@ -175,10 +175,10 @@ def _evaluated_on(n_test: int, with_truth: bool) -> str:
     return (
         "production test rows (odd blocks of consecutive rows), never used to calibrate the intervals or choose "
         "the model (even blocks); predictions out of period inside the support (K folds of consecutive parts: no "
-        "model that predicted a part saw its period), models never trained on the row outside it; every test row "
-        "is scored, those further from the DoE than every calibration part with their region's interval (the "
-        "answers call them calibrated: the test rows tested it there); coverage of the measured value, with its 95% "
-        "Clopper-Pearson interval; "
+        "model that predicted a part saw its period), models never trained on the row outside it; every test row of "
+        "a region with calibration rows is scored, those further from the DoE than every calibration row with their "
+        "region's interval (the answers call such settings calibrated: the test rows tested it there); coverage of "
+        "the measured value, with its 95% Clopper-Pearson interval; "
         "best_on_test: the model of lowest RMSE on a region's test rows (choice_holds: it is the one recommended); "
         "recalibrated: the predictor's region there is chosen and calibrated on the test rows too (the gate's rows "
         "beyond a DoE range: its interval only), the table being the tested interval's"
@@ -243,16 +243,19 @@ def calibrate(
     inside = in_support(predictions)
     distance = predictions["knn_distance"].to_numpy(float)
     calibration = calibration_rows(len(predictions), settings["blocks"])
-    beyond, extremes = beyond_range(inputs, doe_range)
+    beyond = beyond_range(inputs, doe_range)
     least = max(MIN_CALIBRATION_ROWS, min_calibration_rows(level))
     edges = distance_edges(distance[calibration & ~inside], settings["distance_bins"], least)
     region = Regions.of(inside, beyond, distance, edges, np.sum(calibration & inside & beyond) >= least)
     honest = honest_predictions(predictions)
     measured = predictions["measured"].to_numpy(float)
-    # how far the log's parts reach, test blocks too: the latest block, where the plant runs now, is one of them
-    reach = Reach.of(extremes, distance, ~inside, threshold, doe_range, units)
+    # how far the parts of the regions with an interval reach, test blocks too: the latest block, where the plant
+    # runs now, is one of them; a region no calibration part lies in has no interval, and its parts reach nothing
+    answered = np.isin(region.interval, np.unique(region.interval[calibration]))
+    extremes = range_extremes(inputs, doe_range, answered)
+    reach = Reach.of(extremes, distance[answered], ~inside[answered], threshold, doe_range, units)
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
-    # every logged part lies within the reach: each test part is scored
+    # every part of a region with an interval lies within the reach: each such test part is scored
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, fitted)
     table[RECOMMENDED] = [
         model == RECOMMENDED or fitted.recommended.get(name) == model
@@ -273,15 +276,23 @@ def calibrate(
     return Calibration(refitted, table, region, calibration, refitted.with_stack(honest, region), (fitted, with_stack))
 
 
-def beyond_range(inputs: pd.DataFrame, doe_range: dict) -> tuple[np.ndarray, pd.DataFrame]:
-    """Which rows lie beyond a DoE range, and the rows' smallest and largest distance beyond each range (what
-    :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part log (1 GB) are
-    never held whole."""
-    beyond, extremes = np.zeros(len(inputs), bool), []
+def beyond_range(inputs: pd.DataFrame, doe_range: dict) -> np.ndarray:
+    """Which rows lie beyond a DoE range, a million rows at a time."""
+    beyond = np.zeros(len(inputs), bool)
     for rows, amounts in outside_range_by_parts(inputs, doe_range):
         beyond[rows] = (amounts != 0).any(axis=1).to_numpy()
-        extremes += [amounts.min(), amounts.max()]
-    return beyond, pd.DataFrame(extremes, columns=list(doe_range))
+    return beyond
+
+
+def range_extremes(inputs: pd.DataFrame, doe_range: dict, counted: np.ndarray) -> pd.DataFrame:
+    """The smallest and largest distance beyond each DoE range of the rows where ``counted`` (what
+    :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part log (1 GB) are
+    never held whole."""
+    extremes = []
+    for rows, amounts in outside_range_by_parts(inputs, doe_range):
+        counting = amounts[counted[rows]]
+        extremes += [counting.min(), counting.max()]
+    return pd.DataFrame(extremes, columns=list(doe_range))
 
 
 def best_on_test(measured, honest: dict[str, np.ndarray], choice, calibration, fitted: RegionIntervals) -> dict:

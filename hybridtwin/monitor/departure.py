@@ -1,13 +1,14 @@
 """Where a batch leaves what the models can judge, and which settings took it there.
 
 A part whose trust verdict is *extrapolation* (a setting unlike every logged part, or further from the simulations
-than every part that calibrated the models' in-control error) is not judged: the models' error there is unknown,
-so its residual is no evidence that the plant changed. A batch that moves its settings there part-way (a setting
-stepped to a level the log never had, a new campaign) then goes quiet on the chart from that part on, and "in
-control" would overstate what was checked. :func:`departure` finds that part and says which settings moved: a
-setting that steps there (:func:`hybridtwin.monitor.changes.step_of`; several at once: a new campaign), else
-settings beyond the log's range, else none of these (the parts are unlike what calibrated the models in another
-way: a combination of settings, or further from the simulations), with the setting that moved furthest.
+than every logged part whose error the intervals were calibrated or tested on) is not judged: the models' error
+there is unknown, so its residual is no evidence that the plant changed. A batch that moves its settings there
+part-way (a setting stepped to a level the log never had, a new campaign) then goes quiet on the chart from that
+part on, and "in control" would overstate what was checked. :func:`departure` finds that part and says which
+settings moved: a setting that steps there (:func:`hybridtwin.monitor.changes.step_of`; several at once: a new
+campaign), else settings beyond the log's range, else none of these (the parts are unlike what calibrated the
+models in another way: a combination of settings, or further from the simulations), with the setting that moved
+furthest.
 """
 
 from __future__ import annotations

@@ -54,9 +54,9 @@ def unjudged(watched) -> str:
     share = skipped / len(watched.table)
     return (
         f"{skipped:,} of the {len(watched.table):,} parts ({share:.0%}) were not judged: their trust is "
-        "'extrapolation' (further than every part that calibrated the models' in-control error, beyond a DoE range "
-        "by more than those parts were, or unlike every logged part), so the models give no error to compare "
-        "them with; `hybridtwin predict` on them says why for each"
+        "'extrapolation' (further from the simulations than every logged part whose error the intervals were "
+        "calibrated or tested on, beyond a DoE range by more than those parts were, or unlike every logged part), "
+        "so the models give no error to compare them with; `hybridtwin predict` on them says why for each"
     )
 
 
