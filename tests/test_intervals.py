@@ -1,5 +1,7 @@
 """Prediction intervals by region and the recommended model, on constructed cases with known noise."""
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -156,6 +158,14 @@ def test_the_logs_latest_block_reaches_as_far_as_its_parts_though_it_only_tests_
     assert calibrated.intervals.reach["t"][1] == pytest.approx(t.max() - 10.0)
     assert calibrated.intervals.max_distance == pytest.approx(distance[outside].max())
     assert distance[latest & outside].max() > distance[~latest & outside].max()
+    # the daily check judges only as far as the calibration parts lie (it compares a part with their errors)
+    calibration = regions.calibration_rows(len(t), 8)
+    judging = calibrated.intervals.judging
+    assert judging["beyond"]["t"][1] == pytest.approx(t[calibration].max() - 10.0)
+    assert judging["beyond"]["t"][1] < t.max() - 10.0
+    assert judging["max_distance"] == pytest.approx(distance[calibration & outside].max())
+    stored = json.loads(json.dumps(calibrated.intervals.to_dict()))
+    assert intervals.RegionIntervals.from_dict(stored).judging == stored["monitor_reach"]
     # the plant's settings as it runs now are judged, with an interval; a setting further than the log's, not
     from hybridtwin.answers.trust import Reach, trust_levels
 
@@ -709,9 +719,10 @@ def test_stored_intervals_reload_to_the_same_answers_and_older_files_read_as_bef
     pd.testing.assert_frame_equal(answers, again_answers)
     assert answers["pred_lower"].notna().all()
     # a file written before the stack, the calibrated reach and the region beyond the DoE's ranges were stored
-    later_keys = ("stack_weights", "calibrated_reach", "beyond_region", "calibration_spreads")
+    later_keys = ("stack_weights", "calibrated_reach", "beyond_region", "calibration_spreads", "monitor_reach")
     older = intervals.RegionIntervals.from_dict({key: value for key, value in stored.items() if key not in later_keys})
     assert older.weights == {} and older.reach == {} and older.beyond_region is False and older.spreads == {}
+    assert older.judging is None
 
 
 def test_models_without_a_row_in_common_are_each_ranked_on_their_own_rows():

@@ -370,6 +370,23 @@ def test_parts_unlike_every_logged_part_are_not_judged(predictor, parts):
     )
 
 
+def test_parts_beyond_the_calibration_parts_reach_are_answered_but_not_judged(predictor, parts, monkeypatch):
+    # the answers reach as far as the log's parts, test blocks too; the daily check judges a part against its
+    # region's calibrated error, and only as far as the calibration parts lay: here, none out of the support
+    judging = {"max_distance": None, "beyond": predictor.intervals.reach}
+    monkeypatch.setattr(predictor.intervals, "judging", judging)
+    watched = watch.watch(predictor, parts)
+    outside = ~predictor.where(parts[predictor.inputs]).inside
+    assert outside.any() and not outside.all()
+    assert (watched.table["trust"][outside] != "extrapolation").all()  # answered, with an interval
+    expected = watched.table["expected_error"]
+    assert expected[outside].isna().all() and expected[~outside].notna().all()
+    assert watched.judged.sum() == (~outside).sum()
+    says(words.summary(watched), "were not judged: they lie where the models' error was never calibrated")
+    monkeypatch.setattr(predictor.intervals, "judging", None)  # models stored before: the answers' reach
+    assert watch.watch(predictor, parts).judged.sum() == len(parts)
+
+
 def test_a_setting_stepped_where_the_models_cannot_judge_is_named_and_several_at_once_are_a_campaign(predictor, parts):
     batch = parts.copy()
     batch.loc[200:, "cushion_c4_kn"] = batch["cushion_c4_kn"].max() + 80.0

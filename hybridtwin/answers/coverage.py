@@ -254,7 +254,11 @@ def calibrate(
     answered = np.isin(region.interval, np.unique(region.interval[calibration]))
     extremes = range_extremes(inputs, doe_range, answered)
     reach = Reach.of(extremes, distance[answered], ~inside[answered], threshold, doe_range, units)
-    fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach)
+    # the daily check judges a part against its region's calibrated error: only as far as the calibration parts lie
+    # (a warm die beyond them, within the test blocks' reach, drifted inside a regime more than they did)
+    extremes = range_extremes(inputs, doe_range, calibration)
+    judging = Reach.of(extremes, distance[calibration], ~inside[calibration], threshold, doe_range, units)
+    fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, None, judging)
     # every part of a region with an interval lies within the reach: each such test part is scored
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, fitted)
     table[RECOMMENDED] = [
@@ -271,7 +275,7 @@ def calibrate(
         return Calibration(fitted, table, region, calibration, with_stack)
     # those regions' model and interval from their test parts too; the table stays the tested ones'
     also = ~calibration & np.isin(region.interval, list(short))
-    refitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also)
+    refitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, also, judging)
     refitted.recalibrated = short
     return Calibration(refitted, table, region, calibration, refitted.with_stack(honest, region), (fitted, with_stack))
 

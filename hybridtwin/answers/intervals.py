@@ -177,6 +177,7 @@ class RegionIntervals:
         beyond_region: bool = False,
         spreads: dict | None = None,
         recalibrated: dict[str, list[int]] | None = None,
+        judging: dict | None = None,
     ):
         self.calibration = calibration
         # the regions calibrated (and, out of the support, chosen) on their test parts too
@@ -191,6 +192,9 @@ class RegionIntervals:
         self.edges = list(edges)
         self.max_distance = max_distance
         self.reach = reach or {}
+        # how far the calibration parts alone reach ({"max_distance", "beyond"}): where the daily check judges a
+        # part against its region's calibrated error (None in files stored before: the answers' reach)
+        self.judging = judging
         self.beyond_region = beyond_region  # rows in the gate beyond a DoE range have an interval region of their own
         self._sorted = {
             model: {region: np.sort(np.asarray(errors, float)) for region, errors in per_region.items()}
@@ -220,9 +224,11 @@ class RegionIntervals:
         seed: int = 0,
         reach=None,
         also: np.ndarray | None = None,
+        judging=None,
     ) -> "RegionIntervals":
         """``reach``: how far the logged parts that calibrated and tested the intervals lie (:class:`trust.Reach`),
-        stored for the trust verdicts;
+        stored for the trust verdicts; ``judging``: how far the calibration parts alone lie (a :class:`trust.Reach`),
+        stored for the daily check;
         ``also``: rows beyond the calibration rows (the test parts of a region whose interval fell short on them,
         :func:`~hybridtwin.answers.coverage.short_regions`) that calibrate their region's interval too, and choose
         its model and stack where the region chooses its own (out of the support; not the gate's parts beyond a
@@ -254,7 +260,10 @@ class RegionIntervals:
                     spreads["scored"].setdefault(model, {})[name] = np.flatnonzero(has).tolist()
         if reach is not None:
             beyond_region = BEYOND_RANGE in set(region.interval[calibration])
-            return cls(table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region, spreads)
+            judged = None if judging is None else {"max_distance": judging.max_distance, "beyond": judging.beyond}
+            return cls(
+                table, ranking, edges, reach.max_distance, weights, reach.beyond, beyond_region, spreads, None, judged
+            )
         outside = calibration & (region.interval != IN_SUPPORT)
         max_distance = (
             float(np.max(np.asarray(distance, float)[outside])) if outside.any() and distance is not None else None
@@ -331,6 +340,7 @@ class RegionIntervals:
             "stack_weights": self.weights,
             "calibration_spreads": self.spreads,
             "recalibrated": self.recalibrated,
+            "monitor_reach": self.judging,
         }
 
     @classmethod
@@ -345,6 +355,7 @@ class RegionIntervals:
             data.get("beyond_region", False),
             data.get("calibration_spreads"),
             data.get("recalibrated"),
+            data.get("monitor_reach"),
         )
 
 

@@ -13,7 +13,7 @@ carries the input names it was fitted on and a table's columns are taken by name
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -146,6 +146,18 @@ class Predictor:
             self.doe_range,
             self.input_units,
             None if self.neighbourhood is None else self.neighbourhood.threshold_,
+        )
+
+    @property
+    def judging_reach(self) -> trust.Reach:
+        """How far the calibration parts alone lie: the daily check judges no part beyond (models stored before it:
+        the answers' :attr:`reach`)."""
+        judging = self.intervals.judging
+        if judging is None:
+            return self.reach
+        ranges = judging["beyond"] or {name: (0.0, 0.0) for name in self.inputs}
+        return replace(
+            self.reach, max_distance=judging["max_distance"], beyond={name: tuple(ranges[name]) for name in self.inputs}
         )
 
     def peer(self, name: str):

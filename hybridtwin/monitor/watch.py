@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from hybridtwin.answers import intervals
-from hybridtwin.answers.trust import EXTRAPOLATION
+from hybridtwin.answers.trust import EXTRAPOLATION, trust_levels
 from hybridtwin.io.data import MODEL_INPUT
 from hybridtwin.io.errors import InputError
 from hybridtwin.io.reading import CsvFormat, _numeric_extras, load_table, numeric_column, require_columns
@@ -172,7 +172,9 @@ def watch(predictor, batch: pd.DataFrame, seed: int = 0, explain: bool = True) -
     measured = batch[target].to_numpy(float)
     residual = measured - answers[RECOMMENDED_COLUMN].to_numpy(float)
     expected = chart.expected_error(predictor.intervals, answers["recommended_model"], where.region.interval)
-    judged = (np.asarray(where.trust) != EXTRAPOLATION) & np.isfinite(expected) & (expected > 0)
+    # judged only as far as the calibration parts lie: the expected error was calibrated there
+    within = trust_levels(where.inside, where.beyond, where.distance, predictor.judging_reach) != EXTRAPOLATION
+    judged = (np.asarray(where.trust) != EXTRAPOLATION) & within & np.isfinite(expected) & (expected > 0)
     z = np.where(judged, residual / np.where(judged, expected, 1.0), np.nan)
     models = answers["recommended_model"].to_numpy(object)
     result = charted(predictor.spec.get("monitor", {}), batch, residual, z, where.region.interval, models)

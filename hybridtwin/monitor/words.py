@@ -53,10 +53,10 @@ def unjudged(watched) -> str:
         return ""
     share = skipped / len(watched.table)
     return (
-        f"{skipped:,} of the {len(watched.table):,} parts ({share:.0%}) were not judged: their trust is "
-        "'extrapolation' (further from the simulations than every logged part whose error the intervals were "
-        "calibrated or tested on, beyond a DoE range by more than those parts were, or unlike every logged part), "
-        "so the models give no error to compare them with; `hybridtwin predict` on them says why for each"
+        f"{skipped:,} of the {len(watched.table):,} parts ({share:.0%}) were not judged: they lie where the models' "
+        "error was never calibrated (further from the simulations than every part that calibrated it, beyond a DoE "
+        "range by more than those parts were, or unlike every logged part), so the models give no error to compare "
+        "them with; `hybridtwin predict` on them says how far each lies"
     )
 
 
