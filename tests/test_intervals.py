@@ -127,14 +127,17 @@ def test_the_calibration_reads_a_long_log_in_parts_with_the_same_reach(monkeypat
     frame = pd.DataFrame({"a": rng.normal(0, 2, 2500), "b": rng.normal(0, 1, 2500)})
     doe_range = {"a": (-1.0, 1.0), "b": (-1.5, 1.5)}
     counted = (rng.random(2500) < 0.5) & (np.arange(2500) >= 700)  # the first part counts nothing
+    every = np.ones(2500, bool)
     whole_beyond = coverage.beyond_range(frame, doe_range)
-    whole_extremes = coverage.range_extremes(frame, doe_range, counted)
+    whole_extremes, _ = coverage.range_extremes(frame, doe_range, counted, every)
     monkeypatch.setattr(files, "ROWS_AT_ONCE", 700)  # four parts, the last short
-    beyond, extremes = coverage.beyond_range(frame, doe_range), coverage.range_extremes(frame, doe_range, counted)
+    beyond = coverage.beyond_range(frame, doe_range)
+    extremes, all_rows = coverage.range_extremes(frame, doe_range, counted, every)
     amounts = regions.outside_range(frame, doe_range)
     assert np.array_equal(beyond, (amounts != 0).any(axis=1).to_numpy()) and np.array_equal(beyond, whole_beyond)
     assert extremes.min().tolist() == amounts[counted].min().tolist() == whole_extremes.min().tolist()
     assert extremes.max().tolist() == amounts[counted].max().tolist() == whole_extremes.max().tolist()
+    assert all_rows.min().tolist() == amounts.min().tolist() and all_rows.max().tolist() == amounts.max().tolist()
 
 
 def _warming_plant(n=4000, blocks=8, seed=4):

@@ -252,12 +252,12 @@ def calibrate(
     # how far the parts of the regions with an interval reach, test blocks too: the latest block, where the plant
     # runs now, is one of them; a region no calibration part lies in has no interval, and its parts reach nothing
     answered = np.isin(region.interval, np.unique(region.interval[calibration]))
-    extremes = range_extremes(inputs, doe_range, answered)
-    reach = Reach.of(extremes, distance[answered], ~inside[answered], threshold, doe_range, units)
     # the daily check judges a part against its region's calibrated error: only as far as the calibration parts lie
     # (a warm die beyond them, within the test blocks' reach, drifted inside a regime more than they did)
-    extremes = range_extremes(inputs, doe_range, calibration)
-    judging = Reach.of(extremes, distance[calibration], ~inside[calibration], threshold, doe_range, units)
+    reach, judging = (
+        Reach.of(extremes, distance[rows], ~inside[rows], threshold, doe_range, units)
+        for rows, extremes in zip((answered, calibration), range_extremes(inputs, doe_range, answered, calibration))
+    )
     fitted = RegionIntervals.fit(measured, honest, region, calibration, edges, distance, seed, reach, None, judging)
     # every part of a region with an interval lies within the reach: each such test part is scored
     table = coverage_table(measured, honest, region, calibration, edges, threshold, level, truth, seed, fitted)
@@ -288,15 +288,16 @@ def beyond_range(inputs: pd.DataFrame, doe_range: dict) -> np.ndarray:
     return beyond
 
 
-def range_extremes(inputs: pd.DataFrame, doe_range: dict, counted: np.ndarray) -> pd.DataFrame:
-    """The smallest and largest distance beyond each DoE range of the rows where ``counted`` (what
-    :meth:`Reach.of` reads of them), a million rows at a time: the distances of a ten-million-part log (1 GB) are
-    never held whole."""
-    extremes = []
+def range_extremes(inputs: pd.DataFrame, doe_range: dict, *counted: np.ndarray) -> list[pd.DataFrame]:
+    """Per row mask of ``counted``, the smallest and largest distance beyond each DoE range of its rows (what
+    :meth:`Reach.of` reads of them), in one pass a million rows at a time: the distances of a ten-million-part log
+    (1 GB) are never held whole."""
+    extremes = [[] for _ in counted]
     for rows, amounts in outside_range_by_parts(inputs, doe_range):
-        counting = amounts[counted[rows]]
-        extremes += [counting.min(), counting.max()]
-    return pd.DataFrame(extremes, columns=list(doe_range))
+        for found, mask in zip(extremes, counted):
+            counting = amounts[mask[rows]]
+            found += [counting.min(), counting.max()]
+    return [pd.DataFrame(found, columns=list(doe_range)) for found in extremes]
 
 
 def best_on_test(measured, honest: dict[str, np.ndarray], choice, calibration, fitted: RegionIntervals) -> dict:

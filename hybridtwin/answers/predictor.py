@@ -13,7 +13,7 @@ carries the input names it was fitted on and a table's columns are taken by name
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -138,26 +138,25 @@ class Predictor:
 
     @property
     def reach(self) -> trust.Reach:
-        ranges = self.intervals.reach or {name: (0.0, 0.0) for name in self.inputs}
-        return trust.Reach(
-            float(self.spec["threshold"]),
-            self.intervals.max_distance,
-            {name: tuple(ranges[name]) for name in self.inputs},
-            self.doe_range,
-            self.input_units,
-            None if self.neighbourhood is None else self.neighbourhood.threshold_,
-        )
+        """How far the log's parts that calibrated and tested the intervals lie: the answers' verdicts."""
+        return self._reach(self.intervals.max_distance, self.intervals.reach)
 
     @property
     def judging_reach(self) -> trust.Reach:
         """How far the calibration parts alone lie: the daily check judges no part beyond (models stored before it:
         the answers' :attr:`reach`)."""
         judging = self.intervals.judging
-        if judging is None:
-            return self.reach
-        ranges = judging["beyond"] or {name: (0.0, 0.0) for name in self.inputs}
-        return replace(
-            self.reach, max_distance=judging["max_distance"], beyond={name: tuple(ranges[name]) for name in self.inputs}
+        return self.reach if judging is None else self._reach(judging["max_distance"], judging["beyond"])
+
+    def _reach(self, max_distance: float | None, ranges: dict) -> trust.Reach:
+        ranges = ranges or {name: (0.0, 0.0) for name in self.inputs}
+        return trust.Reach(
+            float(self.spec["threshold"]),
+            max_distance,
+            {name: tuple(ranges[name]) for name in self.inputs},
+            self.doe_range,
+            self.input_units,
+            None if self.neighbourhood is None else self.neighbourhood.threshold_,
         )
 
     def peer(self, name: str):
