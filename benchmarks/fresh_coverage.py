@@ -102,7 +102,8 @@ def matched_cases(doe, log, inputs, target, rng, simulate) -> pd.DataFrame:
     return cases
 
 
-def run_workflow(folder: Path, doe, log, matched, inputs, target, seed: int) -> Path:
+def run_workflow(folder: Path, doe, log, matched, inputs, target, seed: int, env: dict | None = None) -> Path:
+    """The workflow on a plant's files in ``folder``; ``env``: the environment of its processes (default: ours)."""
     for name, frame in (("doe", doe), ("production", log), ("matched", matched)):
         frame.to_csv(folder / f"{name}.csv", index=False)
     config = {
@@ -120,7 +121,7 @@ def run_workflow(folder: Path, doe, log, matched, inputs, target, seed: int) -> 
     (folder / "plant.yaml").write_text(yaml.safe_dump(config))
     command = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(folder)]
     command += ["--configfile", str(folder / "plant.yaml"), "--cores", "2", "--quiet"]
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     return folder / "results" / "models"
 
 
