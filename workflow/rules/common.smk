@@ -108,6 +108,10 @@ PRODUCTION_GB = production_gb(config["data"]["production"], config["demo"]["n_pr
 # a log this long (GB of CSV, about 700,000 parts) makes the extension's XGBoost work the run's critical path (an
 # estimate between the two logs measured: 70,000 parts, where it is not, and 10,000,000, where it is)
 LONG_LOG_GB = 0.1
+# the threads of a step on the long log's critical path with nothing beside it (its XGBoost and BLAS work splits
+# over the cores; the outputs are the same on one thread or two); one on a short log, where the step runs beside
+# another and two would wait for both cores to be free
+LONG_LOG_THREADS = 2 if PRODUCTION_GB > LONG_LOG_GB else 1
 
 
 def memory(step):

@@ -61,10 +61,9 @@ rule model_extension:
     priority: 1
     conda:
         "../envs/hybridtwin.yaml"
-    # on a long log both cores: its XGBoost fits and predictions are then the critical path, with nothing beside
-    # it; on a short one a core, so that it runs beside the peers (with two it waited for both cores to be free,
-    # one idle for 4 s of a demo run); the tables are the same on one thread or two
-    threads: 2 if PRODUCTION_GB > LONG_LOG_GB else 1
+    # on a short log a core, so that it runs beside the peers (with two it waited for both cores to be free, one
+    # idle for 4 s of a demo run)
+    threads: LONG_LOG_THREADS
     resources:
         mem_mb=memory("model_extension"),
     params:
