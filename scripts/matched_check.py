@@ -1,5 +1,5 @@
-"""Step 7: external check on the matched cases -> their support (with the workflow's gate), matched_check.csv,
-per-case table, Figure 2; step 8: Figure 3, the error distributions of the surrogate and the hybrids."""
+"""Step 7: external check on the matched cases -> their support (with the workflow's gate), matched_check.csv and
+the per-case table (Figure 2 is drawn with Table 5, from the production predictions)."""
 
 from hybridtwin.io import data, files
 from hybridtwin.io.files import in_support, read_checked
@@ -7,7 +7,6 @@ from hybridtwin.io.runner import run, spec_of
 from hybridtwin.paper import residual, tables
 from hybridtwin.paper.gate import KNNSupportGate
 from hybridtwin.paper.surrogate import GPRSurrogate
-from hybridtwin.report import plots
 
 
 def main(snakemake):
@@ -28,11 +27,6 @@ def main(snakemake):
     )
     files.write_csv(summary, snakemake.output.summary)
     files.write_csv(cases, snakemake.output.cases)
-    predictions = read_checked(snakemake.input.predictions)
-    shown = tables.residual_check(predictions, cases, summary)
-    files.save_figure(plots.residual_check(**shown, unit=p.unit), snakemake.output.figure)
-    errors = tables.error_groups(predictions, cases)
-    files.save_figure(plots.error_distributions(errors, p.unit), snakemake.output.errors)
 
 
 run(snakemake, main)
