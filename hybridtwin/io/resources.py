@@ -27,7 +27,7 @@ MEASURED = {
     "residual_model_filtered": (249, 923),  # workflow_timing_259531c.md, plant_scale_259531c.md
     "residual_model_unfiltered": (295, 2317),  # workflow_timing_259531c.md, plant_scale_259531c.md
     "predict_production": (304, 2131),
-    "matched_check": (184, 228),  # workflow_timing_c8bc4af.md, plant_scale_c8bc4af.md: no production predictions
+    "matched_check": (184, 228),  # workflow_timing_b353689.md, plant_scale_b353689.md: no production predictions
     "model_extension": (277, 2400),
     "production_predictions": (200, 771),
     "prediction_intervals": (429, 2857),  # from plant_scale_b39d8ea.md
@@ -35,7 +35,7 @@ MEASURED = {
     "peer_cokriging": (1138, 2057),
     "peer_gp_discrepancy": (431, 1373),
     "diagnose": (357, 1343),
-    "sensitivity": (198, 1764),  # with Figures 2 and 3 since c8bc4af (1,663 MB at ten million parts there)
+    "sensitivity": (198, 1764),  # with Figures 2 and 3 (1,663 MB at ten million parts, plant_scale_b353689.md)
 }
 MEASURED_GB = (0.0098, 1.405)  # the two runs' production CSV, GB
 BYTES_PER_PART = 140  # the demo's production CSV (17 columns), for a demo plant not made yet
