@@ -7,7 +7,7 @@ from hybridtwin.io import files
 from hybridtwin.io.files import read_checked
 from hybridtwin.io.runner import run
 from hybridtwin.paper import tables
-from hybridtwin.paper.tables import sensitivity_table
+from hybridtwin.report import plots
 
 
 def main(snakemake):
@@ -15,9 +15,7 @@ def main(snakemake):
     predictions = read_checked(snakemake.input.predictions)
     # the unfiltered model trains on every part: a sample of them where the log is longer than the cap
     note = capped_note(p.max_train_rows, len(predictions))
-    files.write_csv(sensitivity_table(predictions, note), snakemake.output.table)
-    from hybridtwin.report import plots  # here: matplotlib only where the figures are drawn
-
+    files.write_csv(tables.sensitivity_table(predictions, note), snakemake.output.table)
     summary, cases = read_checked(snakemake.input.summary), read_checked(snakemake.input.cases)
     shown = tables.residual_check(predictions, cases, summary)
     files.save_figure(plots.residual_check(**shown, unit=p.unit), snakemake.output.figure)
