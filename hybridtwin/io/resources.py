@@ -27,7 +27,7 @@ MEASURED = {
     "residual_model_filtered": (249, 923),  # workflow_timing_259531c.md, plant_scale_259531c.md
     "residual_model_unfiltered": (295, 2317),  # workflow_timing_259531c.md, plant_scale_259531c.md
     "predict_production": (304, 2131),
-    "matched_check": (184, 228),  # workflow_timing_b353689.md, plant_scale_b353689.md: no production predictions
+    "matched_check": (184, 183),  # workflow_timing_b353689.md, plant_scale_b353689.md: no production predictions
     "model_extension": (277, 2400),
     "production_predictions": (200, 771),
     "prediction_intervals": (429, 2857),  # from plant_scale_b39d8ea.md
